@@ -1,0 +1,316 @@
+//! `hugrt`: the command line over the hugrt library. It parses arguments, calls the library
+//! and prints; no algorithm lives here.
+
+mod bench;
+
+use anyhow::{Context, Result, bail};
+use clap::{Parser, Subcommand};
+use hugrt::accel::{AnyAccel, STRUCTURES};
+use hugrt::render::{RenderSettings, render};
+use hugrt::scene::{Scene, procedural};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use std::path::PathBuf;
+use std::time::Instant;
+
+const ACCEL_HELP: &str =
+    "Spatial structure: NAME[:KEY=VALUE,...], e.g. grid, grid:density=20,prune=true, brute";
+
+#[derive(Parser)]
+#[command(
+    name = "hugrt",
+    version,
+    about = "Ray shooting through spatial data structures (HUG, grids, trees)"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render a scene Whitted-style following the SPD test procedure, and report ray counts.
+    ///
+    /// With no SCENE, renders the built-in clustered room (a large sparse room with dense
+    /// clusters of small objects). SCENE is an .nff, .ply or .obj file (optionally .gz), or
+    /// builtin:room[:TRIANGLES].
+    Render {
+        scene: Option<String>,
+        /// Output PNG.
+        #[arg(short, long, default_value = "hugrt.png")]
+        output: PathBuf,
+        #[arg(long, default_value = "grid", help = ACCEL_HELP)]
+        accel: String,
+        /// Image width (default: the scene's resolution).
+        #[arg(long)]
+        width: Option<u32>,
+        /// Image height (default: the scene's resolution).
+        #[arg(long)]
+        height: Option<u32>,
+        /// Bounces after the eye ray (SPD: 4).
+        #[arg(long, default_value_t = 4)]
+        depth: u32,
+        /// Worker threads (default: all cores).
+        #[arg(long)]
+        threads: Option<usize>,
+        /// Write ray counts and timings as JSON.
+        #[arg(long)]
+        stats_json: Option<PathBuf>,
+        /// Also count ray-primitive tests, ray-box tests and cells visited per level (slower).
+        #[arg(long)]
+        counters: bool,
+        /// No progress bar.
+        #[arg(short, long)]
+        quiet: bool,
+    },
+    /// Batch ray queries: read a rays file, write a hits file (the embree-peer format).
+    ///
+    /// Rays: little-endian f32 records `ox oy oz tmin dx dy dz tmax` (32 bytes). Hits: per ray
+    /// f32 t (+inf on a miss) then u32 primitive index (0xFFFFFFFF on a miss).
+    Trace {
+        scene: String,
+        #[arg(long)]
+        rays: PathBuf,
+        #[arg(long)]
+        hits: PathBuf,
+        #[arg(long, default_value = "grid", help = ACCEL_HELP)]
+        accel: String,
+        /// Occlusion queries: t = 1.0 and index 0 when anything is hit.
+        #[arg(long)]
+        any_hit: bool,
+        #[arg(long)]
+        threads: Option<usize>,
+    },
+    /// Scene statistics (SCG97 Fig. 4) and the structure's own (cells, references, memory).
+    Stats {
+        scene: String,
+        #[arg(long, default_value = "grid", help = ACCEL_HELP)]
+        accel: String,
+        /// Print JSON instead of text.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Measure build time, Mrays/s (1 and 2 threads, incoherent and camera rays) and bytes per
+    /// primitive for structures on scenes. Default: every mesh in ../shared/scenes/meshes that
+    /// exists plus builtin:room:1000000.
+    Bench {
+        /// Scenes (files or builtin:room[:TRIANGLES]).
+        scenes: Vec<String>,
+        /// Structures to measure (repeatable).
+        #[arg(long = "accel", default_value = "grid", help = ACCEL_HELP)]
+        accels: Vec<String>,
+        /// Incoherent rays per measurement.
+        #[arg(long, default_value_t = 1_000_000)]
+        rays: usize,
+        /// Camera image side (side² rays).
+        #[arg(long, default_value_t = 1024)]
+        camera: u32,
+        /// Repetitions per figure (the median is reported).
+        #[arg(long, default_value_t = 3)]
+        repeat: usize,
+    },
+}
+
+fn main() {
+    if let Err(e) = run(Cli::parse()) {
+        eprintln!("hugrt: error: {e:#}");
+        std::process::exit(1);
+    }
+}
+
+/// Loads a scene file, or generates `builtin:room[:TRIANGLES]`.
+pub(crate) fn load_scene(name: &str) -> Result<Scene> {
+    if let Some(rest) = name.strip_prefix("builtin:") {
+        let (kind, size) = rest.split_once(':').unwrap_or((rest, "60000"));
+        if kind != "room" {
+            bail!("unknown built-in scene '{kind}' (there is: builtin:room[:TRIANGLES])");
+        }
+        let n: usize = size
+            .parse()
+            .ok()
+            .filter(|&n| (1..=100_000_000).contains(&n))
+            .with_context(|| {
+                format!("builtin:room: '{size}' is not a triangle count in 1..=100000000")
+            })?;
+        return Ok(procedural::clustered_room(n, 1));
+    }
+    Ok(Scene::load(name)?)
+}
+
+fn build(scene: &Scene, spec: &str) -> Result<(AnyAccel, f64)> {
+    let t = Instant::now();
+    let accel = AnyAccel::build(scene, spec).with_context(|| format!("--accel {spec}"))?;
+    Ok((accel, t.elapsed().as_secs_f64()))
+}
+
+fn pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
+    let mut b = rayon::ThreadPoolBuilder::new();
+    if let Some(n) = threads {
+        if n == 0 {
+            bail!("--threads must be at least 1");
+        }
+        b = b.num_threads(n);
+    }
+    Ok(b.build()?)
+}
+
+fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Render {
+            scene,
+            output,
+            accel,
+            width,
+            height,
+            depth,
+            threads,
+            stats_json,
+            counters,
+            quiet,
+        } => {
+            let name = scene.unwrap_or_else(|| "builtin:room".to_string());
+            pool(threads)?.install(|| {
+                let t = Instant::now();
+                let scene = load_scene(&name)?;
+                let load_s = t.elapsed().as_secs_f64();
+                let (acc, build_s) = build(&scene, &accel)?;
+                let settings = RenderSettings {
+                    width: width.unwrap_or(scene.camera.width),
+                    height: height.unwrap_or(scene.camera.height),
+                    depth,
+                    counters,
+                };
+                if settings.width == 0 || settings.height == 0 || settings.width.max(settings.height) > 65536 {
+                    bail!("image size {}x{} is not within 1..=65536", settings.width, settings.height);
+                }
+                let bar = ProgressBar::new(settings.height as u64 + 1);
+                bar.set_draw_target(if quiet { ProgressDrawTarget::hidden() } else { ProgressDrawTarget::stderr() });
+                bar.set_style(ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} rows {eta}")?.progress_chars("=> "));
+                let t = Instant::now();
+                let out = render(&scene, &acc, &settings, &|n| bar.inc(n));
+                let render_s = t.elapsed().as_secs_f64();
+                bar.finish_and_clear();
+                out.image.save(&output).with_context(|| format!("writing {}", output.display()))?;
+                let c = out.counts;
+                println!("scene {name}: {} primitives, {} lights; structure {} ({})", scene.shapes.len(), scene.lights.len(), acc.name(), accel);
+                println!("load {load_s:.3} s, build {build_s:.3} s, render {render_s:.3} s ({:.2} Mrays/s)", c.total_rays() as f64 / render_s / 1e6);
+                println!("eye rays {} (hit {}), shadow rays {} (blocked {}), reflected {}, refracted {}, secondary hits {}",
+                    c.eye_rays, c.eye_hits, c.shadow_rays, c.shadow_hits, c.reflected_rays, c.refracted_rays, c.secondary_hits);
+                println!("wrote {}", output.display());
+                if let Some(path) = stats_json {
+                    let mut j = serde_json::to_value(c)?;
+                    let o = j.as_object_mut().expect("counts serialise to an object");
+                    o.insert("scene".into(), name.clone().into());
+                    o.insert("accel".into(), accel.clone().into());
+                    o.insert("primitives".into(), scene.shapes.len().into());
+                    o.insert("width".into(), settings.width.into());
+                    o.insert("height".into(), settings.height.into());
+                    o.insert("load_seconds".into(), load_s.into());
+                    o.insert("build_seconds".into(), build_s.into());
+                    o.insert("render_seconds".into(), render_s.into());
+                    o.insert("accel_memory_bytes".into(), acc.memory_bytes().into());
+                    if let Some(k) = out.counters {
+                        o.insert("counters_per_level".into(), serde_json::to_value(k.used_levels())?);
+                    }
+                    std::fs::write(&path, serde_json::to_string_pretty(&j)? + "\n")
+                        .with_context(|| format!("writing {}", path.display()))?;
+                }
+                Ok(())
+            })
+        }
+        Command::Trace {
+            scene,
+            rays,
+            hits,
+            accel,
+            any_hit,
+            threads,
+        } => pool(threads)?.install(|| {
+            let scene = load_scene(&scene)?;
+            let bytes =
+                std::fs::read(&rays).with_context(|| format!("reading {}", rays.display()))?;
+            let ray_list =
+                hugrt::batch::decode_rays(&bytes).with_context(|| rays.display().to_string())?;
+            let (acc, build_s) = build(&scene, &accel)?;
+            let t = Instant::now();
+            let result = hugrt::batch::trace(&scene, &acc, &ray_list, any_hit);
+            let trace_s = t.elapsed().as_secs_f64();
+            std::fs::write(&hits, hugrt::batch::encode_hits(&result))
+                .with_context(|| format!("writing {}", hits.display()))?;
+            let hit_count = result.iter().filter(|h| h.is_some()).count();
+            eprintln!(
+                "build {:.1} ms, trace {:.1} ms, {} rays, {} hits, {:.2} Mrays/s",
+                build_s * 1e3,
+                trace_s * 1e3,
+                ray_list.len(),
+                hit_count,
+                ray_list.len() as f64 / trace_s.max(1e-9) / 1e6
+            );
+            Ok(())
+        }),
+        Command::Stats {
+            scene: name,
+            accel,
+            json,
+        } => {
+            let scene = load_scene(&name)?;
+            let s = hugrt::stats::scene_stats(&scene);
+            let (acc, build_s) = build(&scene, &accel)?;
+            let st = acc.stats();
+            if json {
+                let j = serde_json::json!({
+                    "scene": name, "accel": accel, "scene_stats": s, "build_seconds": build_s,
+                    "scene_memory_bytes": scene.memory_bytes(),
+                    "structure": st.entries.iter().map(|(k, v)| (k.clone(), serde_json::json!(v))).collect::<serde_json::Map<_, _>>(),
+                });
+                println!("{}", serde_json::to_string_pretty(&j)?);
+            } else {
+                println!("scene {name}");
+                println!("  objects             {}", s.objects);
+                println!("  scene diagonal      {:.6}", s.scene_diagonal);
+                println!(
+                    "  min / max length    {:.3e} / {:.3e}",
+                    s.min_length, s.max_length
+                );
+                println!("  min/max             {:.3e}", s.min_over_max);
+                println!("  min/diag            {:.3e}", s.min_over_diagonal);
+                println!("  %.2                 {:.1}%", s.percent_below_0_2);
+                println!("  length histogram (fraction of max length, 10 bins):");
+                for (k, c) in s.histogram.iter().enumerate() {
+                    println!(
+                        "    [{:.1}, {:.1})  {c}",
+                        k as f32 / 10.0,
+                        (k + 1) as f32 / 10.0
+                    );
+                }
+                println!("  primitive memory    {} bytes", scene.memory_bytes());
+                println!("structure {accel} (built in {:.1} ms)", build_s * 1e3);
+                for (k, v) in &st.entries {
+                    println!(
+                        "  {k:<22}{}",
+                        if v.fract() == 0.0 {
+                            format!("{v}")
+                        } else {
+                            format!("{v:.4}")
+                        }
+                    );
+                }
+            }
+            Ok(())
+        }
+        Command::Bench {
+            scenes,
+            accels,
+            rays,
+            camera,
+            repeat,
+        } => {
+            if accels.is_empty() {
+                bail!(
+                    "no structure given; valid structures: {}",
+                    STRUCTURES.join(", ")
+                );
+            }
+            bench::run(&scenes, &accels, rays, camera, repeat.max(1))
+        }
+    }
+}

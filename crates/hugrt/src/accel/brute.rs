@@ -1,0 +1,55 @@
+//! Brute force: every primitive is tested against every ray. The reference every other
+//! structure is checked against, so it is kept as plain as possible.
+
+use super::{Accel, Counters, Hit, Primitives, Spec, SpecError, StructureStats};
+use crate::geometry::{PreparedRay, Ray};
+
+pub struct Brute {
+    len: usize,
+}
+
+impl Accel for Brute {
+    const NAME: &'static str = "brute";
+    const KEYS: &'static [(&'static str, &'static str)] = &[];
+
+    fn build<P: Primitives>(prims: &P, _spec: &Spec) -> Result<Self, SpecError> {
+        Ok(Brute { len: prims.len() })
+    }
+
+    fn query<P: Primitives, C: Counters, const ANY_HIT: bool>(
+        &self,
+        prims: &P,
+        ray: &Ray,
+        counters: &mut C,
+    ) -> Option<Hit> {
+        if !ray.is_traceable() {
+            return None;
+        }
+        let pr = PreparedRay::new(ray);
+        let mut best: Option<Hit> = None;
+        for i in 0..self.len {
+            counters.prim_test(0);
+            let tmax = best.map_or(ray.tmax, |b| b.t);
+            if let Some(t) = prims.intersect(i, &pr, ray.tmin, tmax) {
+                counters.prim_hit(0);
+                if Hit::improves(&best, t, i as u32) {
+                    best = Some(Hit { t, prim: i as u32 });
+                    if ANY_HIT {
+                        break;
+                    }
+                }
+            }
+        }
+        best
+    }
+
+    fn memory_bytes(&self) -> usize {
+        std::mem::size_of::<Self>()
+    }
+
+    fn stats(&self) -> StructureStats {
+        let mut s = StructureStats::default();
+        s.push("primitives", self.len as f64);
+        s
+    }
+}

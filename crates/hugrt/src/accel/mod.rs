@@ -1,0 +1,168 @@
+//! Spatial structures for ray shooting, all behind one interface.
+//!
+//! A structure is built from a [`Primitives`] set (bounding boxes, an exact box-overlap test,
+//! and "intersect primitive i") and answers closest-hit and any-hit queries. Queries are
+//! generic over the primitive set and over [`Counters`], so the traversal is monomorphised:
+//! no virtual call per primitive, and counting costs nothing when [`NoCounters`] is used.
+//!
+//! Structures are chosen at run time by a spec string `name[:key=value,...]` ([`Spec`]).
+//! [`AnyAccel`] holds one of them; the list in [`structures!`] below is the single place that
+//! names them all, and the tests, the CLI and the benchmarks iterate it. Adding a structure is
+//! one module and one line there.
+
+mod brute;
+mod counters;
+mod grid;
+mod mailbox;
+mod spec;
+
+pub use brute::Brute;
+pub use counters::{Counters, LevelCounts, MAX_LEVELS, NoCounters, RayCounters};
+pub use grid::{Grid, cubical_resolution};
+pub use mailbox::Mailbox;
+pub use spec::{Spec, SpecError};
+
+use crate::geometry::{Aabb, PreparedRay, Ray};
+
+/// A set of primitives as a structure sees it.
+pub trait Primitives: Sync {
+    fn len(&self) -> usize;
+    fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+    fn bounds(&self, i: usize) -> Aabb;
+    /// Hit parameter of primitive `i` in `[tmin, tmax]`, if any.
+    fn intersect(&self, i: usize, ray: &PreparedRay, tmin: f32, tmax: f32) -> Option<f32>;
+    /// Exact overlap of primitive `i` with a box; `true` when unsure (conservative).
+    fn overlaps_box(&self, _i: usize, _b: &Aabb) -> bool {
+        true
+    }
+}
+
+/// The nearest hit: parameter `t` along the ray and the primitive's index.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    pub t: f32,
+    pub prim: u32,
+}
+
+impl Hit {
+    /// Whether a hit of `prim` at `t` should replace `best`. Ties in `t` go to the lower index,
+    /// so every structure reports the same primitive (and renders the same image) whatever
+    /// order it tests candidates in.
+    #[inline]
+    pub fn improves(best: &Option<Hit>, t: f32, prim: u32) -> bool {
+        match best {
+            None => true,
+            Some(b) => t < b.t || (t == b.t && prim < b.prim),
+        }
+    }
+}
+
+/// Statistics a structure reports about itself (`hugrt stats`): named numbers, in the order
+/// the structure finds meaningful.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct StructureStats {
+    pub entries: Vec<(String, f64)>,
+}
+
+impl StructureStats {
+    pub fn push(&mut self, name: &str, value: f64) {
+        self.entries.push((name.to_string(), value));
+    }
+}
+
+/// One spatial structure. `ANY_HIT` selects any-hit (occlusion) at compile time: the query may
+/// stop at the first hit found, and then reports that one.
+pub trait Accel: Sized + Send + Sync {
+    /// Name used in specs.
+    const NAME: &'static str;
+    /// Keys this structure accepts, with a one-line description each (shown in errors).
+    const KEYS: &'static [(&'static str, &'static str)];
+
+    fn build<P: Primitives>(prims: &P, spec: &Spec) -> Result<Self, SpecError>;
+
+    fn query<P: Primitives, C: Counters, const ANY_HIT: bool>(
+        &self,
+        prims: &P,
+        ray: &Ray,
+        counters: &mut C,
+    ) -> Option<Hit>;
+
+    /// Bytes held by the structure itself (not the primitives).
+    fn memory_bytes(&self) -> usize;
+
+    fn stats(&self) -> StructureStats;
+}
+
+/// Declares the list of structures: generates [`AnyAccel`] and [`STRUCTURES`].
+macro_rules! structures {
+    ($($variant:ident => $ty:ty),* $(,)?) => {
+        /// Any of hugrt's structures, chosen by a spec at run time.
+        pub enum AnyAccel {
+            $($variant($ty),)*
+        }
+
+        /// Names of every structure, in the order of the list.
+        pub const STRUCTURES: &[&str] = &[$(<$ty as Accel>::NAME),*];
+
+        impl AnyAccel {
+            /// Builds the structure a spec string names, e.g. `grid:density=8`.
+            pub fn build<P: Primitives>(prims: &P, spec: &str) -> Result<Self, SpecError> {
+                let spec = Spec::parse(spec)?;
+                $(if spec.name == <$ty as Accel>::NAME {
+                    spec.check_keys(<$ty as Accel>::KEYS)?;
+                    return Ok(AnyAccel::$variant(<$ty as Accel>::build(prims, &spec)?));
+                })*
+                Err(SpecError::UnknownStructure {
+                    name: spec.name.clone(),
+                    valid: STRUCTURES.join(", "),
+                })
+            }
+
+            pub fn name(&self) -> &'static str {
+                match self { $(AnyAccel::$variant(_) => <$ty as Accel>::NAME,)* }
+            }
+
+            /// Keys accepted by the named structure.
+            pub fn keys(name: &str) -> Option<&'static [(&'static str, &'static str)]> {
+                $(if name == <$ty as Accel>::NAME { return Some(<$ty as Accel>::KEYS); })*
+                None
+            }
+
+            #[inline]
+            pub fn closest_hit<P: Primitives, C: Counters>(
+                &self, prims: &P, ray: &Ray, counters: &mut C,
+            ) -> Option<Hit> {
+                if !ray.is_traceable() {
+                    return None;
+                }
+                match self { $(AnyAccel::$variant(a) => a.query::<P, C, false>(prims, ray, counters),)* }
+            }
+
+            /// Whether anything is hit in the ray's `[tmin, tmax]`.
+            #[inline]
+            pub fn any_hit<P: Primitives, C: Counters>(
+                &self, prims: &P, ray: &Ray, counters: &mut C,
+            ) -> Option<Hit> {
+                if !ray.is_traceable() {
+                    return None;
+                }
+                match self { $(AnyAccel::$variant(a) => a.query::<P, C, true>(prims, ray, counters),)* }
+            }
+
+            pub fn memory_bytes(&self) -> usize {
+                match self { $(AnyAccel::$variant(a) => a.memory_bytes(),)* }
+            }
+
+            pub fn stats(&self) -> StructureStats {
+                match self { $(AnyAccel::$variant(a) => a.stats(),)* }
+            }
+        }
+    };
+}
+
+structures! {
+    Brute => Brute,
+    Grid => Grid,
+}

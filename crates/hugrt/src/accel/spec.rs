@@ -1,0 +1,138 @@
+//! Structure specs: `name[:key=value,...]`, e.g. `grid`, `grid:density=20,prune=true`.
+
+use thiserror::Error;
+
+#[derive(Debug, Error, PartialEq)]
+pub enum SpecError {
+    #[error("unknown structure '{name}'; valid structures: {valid}")]
+    UnknownStructure { name: String, valid: String },
+    #[error("structure '{name}' has no key '{key}'; valid keys: {valid}")]
+    UnknownKey {
+        name: String,
+        key: String,
+        valid: String,
+    },
+    #[error("malformed spec '{spec}': {reason}")]
+    Malformed { spec: String, reason: String },
+    #[error("bad value '{value}' for key '{key}': {reason}")]
+    BadValue {
+        key: String,
+        value: String,
+        reason: String,
+    },
+    #[error("{0}")]
+    Build(String),
+}
+
+/// A parsed spec: the structure's name and its `key=value` pairs in order.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Spec {
+    pub name: String,
+    pub params: Vec<(String, String)>,
+}
+
+impl Spec {
+    pub fn parse(s: &str) -> Result<Spec, SpecError> {
+        let malformed = |reason: &str| SpecError::Malformed {
+            spec: s.to_string(),
+            reason: reason.to_string(),
+        };
+        let (name, rest) = match s.split_once(':') {
+            Some((n, r)) => (n.trim(), Some(r)),
+            None => (s.trim(), None),
+        };
+        if name.is_empty() {
+            return Err(malformed("empty structure name"));
+        }
+        let mut params = Vec::new();
+        for kv in rest.into_iter().flat_map(|r| r.split(',')) {
+            let (k, v) = kv
+                .split_once('=')
+                .ok_or_else(|| malformed(&format!("'{kv}' is not key=value")))?;
+            let (k, v) = (k.trim(), v.trim());
+            if k.is_empty() || v.is_empty() {
+                return Err(malformed(&format!("'{kv}' is not key=value")));
+            }
+            if params.iter().any(|(pk, _): &(String, String)| pk == k) {
+                return Err(malformed(&format!("key '{k}' given twice")));
+            }
+            params.push((k.to_string(), v.to_string()));
+        }
+        Ok(Spec {
+            name: name.to_string(),
+            params,
+        })
+    }
+
+    pub(crate) fn check_keys(&self, keys: &[(&str, &str)]) -> Result<(), SpecError> {
+        for (k, _) in &self.params {
+            if !keys.iter().any(|(name, _)| name == k) {
+                let valid = if keys.is_empty() {
+                    "(none)".to_string()
+                } else {
+                    keys.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", ")
+                };
+                return Err(SpecError::UnknownKey {
+                    name: self.name.clone(),
+                    key: k.clone(),
+                    valid,
+                });
+            }
+        }
+        Ok(())
+    }
+
+    fn raw(&self, key: &str) -> Option<&str> {
+        self.params
+            .iter()
+            .find(|(k, _)| k == key)
+            .map(|(_, v)| v.as_str())
+    }
+
+    /// A finite number in `[lo, hi]`, or `default` when the key is absent.
+    pub fn f32_in(&self, key: &str, default: f32, lo: f32, hi: f32) -> Result<f32, SpecError> {
+        let Some(v) = self.raw(key) else {
+            return Ok(default);
+        };
+        let bad = |reason: String| SpecError::BadValue {
+            key: key.to_string(),
+            value: v.to_string(),
+            reason,
+        };
+        let x: f32 = v.parse().map_err(|_| bad("not a number".into()))?;
+        if !(x >= lo && x <= hi) {
+            return Err(bad(format!("must be between {lo} and {hi}")));
+        }
+        Ok(x)
+    }
+
+    pub fn bool(&self, key: &str, default: bool) -> Result<bool, SpecError> {
+        match self.raw(key) {
+            None => Ok(default),
+            Some("true" | "1" | "yes" | "on") => Ok(true),
+            Some("false" | "0" | "no" | "off") => Ok(false),
+            Some(v) => Err(SpecError::BadValue {
+                key: key.to_string(),
+                value: v.to_string(),
+                reason: "expected true or false".into(),
+            }),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_names_and_pairs() {
+        let s = Spec::parse("grid:density=20, prune=true").unwrap();
+        assert_eq!(s.name, "grid");
+        assert_eq!(s.f32_in("density", 1.0, 0.0, 100.0), Ok(20.0));
+        assert_eq!(s.bool("prune", false), Ok(true));
+        assert!(Spec::parse("grid:density").is_err());
+        assert!(Spec::parse(":x=1").is_err());
+        assert!(Spec::parse("grid:a=1,a=2").is_err());
+        assert!(s.f32_in("density", 1.0, 0.0, 10.0).is_err());
+    }
+}

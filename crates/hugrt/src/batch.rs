@@ -1,0 +1,121 @@
+//! Batch ray queries in the file format of `hugrt trace` (shared with embree-peer):
+//! rays are raw little-endian records of 8 `f32` `ox oy oz tmin dx dy dz tmax` (32 bytes, no
+//! header); hits are per ray an `f32` `t` (+inf on a miss) and a `u32` primitive index
+//! (`0xFFFFFFFF` on a miss). For any-hit queries `t` is 1.0 and the index 0 when the ray is
+//! blocked, as embree-peer writes them.
+
+use crate::accel::{AnyAccel, Hit, NoCounters, Primitives};
+use crate::geometry::{Ray, Vec3};
+use rayon::prelude::*;
+
+pub const RAY_BYTES: usize = 32;
+pub const HIT_BYTES: usize = 8;
+
+#[derive(Debug, thiserror::Error)]
+#[error("rays file is {len} bytes, not a multiple of {RAY_BYTES} (8 little-endian f32 per ray)")]
+pub struct RaysFileError {
+    pub len: usize,
+}
+
+pub fn decode_rays(bytes: &[u8]) -> Result<Vec<Ray>, RaysFileError> {
+    if !bytes.len().is_multiple_of(RAY_BYTES) {
+        return Err(RaysFileError { len: bytes.len() });
+    }
+    Ok(bytes
+        .chunks_exact(RAY_BYTES)
+        .map(|r| {
+            let f = |k: usize| f32::from_le_bytes(r[4 * k..4 * k + 4].try_into().unwrap());
+            Ray::new(
+                Vec3::new(f(0), f(1), f(2)),
+                Vec3::new(f(4), f(5), f(6)),
+                f(3),
+                f(7),
+            )
+        })
+        .collect())
+}
+
+pub fn encode_rays(rays: &[Ray]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(rays.len() * RAY_BYTES);
+    for r in rays {
+        for x in [
+            r.origin.x, r.origin.y, r.origin.z, r.tmin, r.dir.x, r.dir.y, r.dir.z, r.tmax,
+        ] {
+            out.extend_from_slice(&x.to_le_bytes());
+        }
+    }
+    out
+}
+
+pub fn encode_hits(hits: &[Option<Hit>]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(hits.len() * HIT_BYTES);
+    for h in hits {
+        let (t, p) = h.map_or((f32::INFINITY, u32::MAX), |h| (h.t, h.prim));
+        out.extend_from_slice(&t.to_le_bytes());
+        out.extend_from_slice(&p.to_le_bytes());
+    }
+    out
+}
+
+/// Traces every ray on the current rayon pool. Any-hit results are reported as
+/// `Hit { t: 1.0, prim: 0 }`.
+pub fn trace<P: Primitives>(
+    prims: &P,
+    accel: &AnyAccel,
+    rays: &[Ray],
+    any_hit: bool,
+) -> Vec<Option<Hit>> {
+    rays.par_iter()
+        .with_min_len(256)
+        .map(|r| {
+            if any_hit {
+                accel
+                    .any_hit(prims, r, &mut NoCounters)
+                    .map(|_| Hit { t: 1.0, prim: 0 })
+            } else {
+                accel.closest_hit(prims, r, &mut NoCounters)
+            }
+        })
+        .collect()
+}
+
+/// Rays as embree-peer's `gen_rays.py incoherent` makes them: origins uniform in the box,
+/// directions uniform on the sphere, `t` in `[0, inf]`.
+pub fn incoherent_rays(bounds: &crate::geometry::Aabb, n: usize, seed: u64) -> Vec<Ray> {
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(seed);
+    (0..n)
+        .map(|_| {
+            let o =
+                bounds.min + bounds.extent() * Vec3::new(rng.random(), rng.random(), rng.random());
+            let d = loop {
+                let v = Vec3::new(rng.random(), rng.random(), rng.random()) * 2.0 - Vec3::ONE;
+                let l = v.length_squared();
+                if l > 1e-6 && l <= 1.0 {
+                    break v / l.sqrt();
+                }
+            };
+            Ray::new(o, d, 0.0, f32::INFINITY)
+        })
+        .collect()
+}
+
+/// Pinhole rays as `gen_rays.py camera` makes them: from 1.5 box diagonals away along
+/// (1, 0.6, 1.4), 45° field of view, through pixel centres, row by row from the top.
+pub fn camera_rays(bounds: &crate::geometry::Aabb, w: u32, h: u32) -> Vec<Ray> {
+    let c = bounds.center();
+    let eye = c + Vec3::new(1.0, 0.6, 1.4).normalize() * 1.5 * bounds.diagonal();
+    let fwd = (c - eye).normalize();
+    let right = fwd.cross(Vec3::Y).normalize();
+    let up = right.cross(fwd);
+    let s = (45f32.to_radians() / 2.0).tan();
+    let mut rays = Vec::with_capacity(w as usize * h as usize);
+    for y in 0..h {
+        for x in 0..w {
+            let u = (2.0 * (x as f32 + 0.5) / w as f32 - 1.0) * s * w as f32 / h as f32;
+            let v = (1.0 - 2.0 * (y as f32 + 0.5) / h as f32) * s;
+            rays.push(Ray::new(eye, fwd + right * u + up * v, 0.0, f32::INFINITY));
+        }
+    }
+    rays
+}

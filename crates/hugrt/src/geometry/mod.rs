@@ -1,0 +1,23 @@
+//! Rays, boxes and the primitives of the SPD scenes, with their intersection tests.
+//!
+//! Spatial structures never look inside a primitive: they see its bounding box and call
+//! "intersect primitive i" (see [`crate::accel::Primitives`]), so every structure works for
+//! every primitive kind defined here.
+
+mod aabb;
+mod cone;
+mod polygon;
+mod ray;
+mod shape;
+mod sphere;
+mod triangle;
+
+pub use aabb::Aabb;
+pub use cone::Cone;
+pub use polygon::{newell_normal, triangulate_polygon};
+pub use ray::{PreparedRay, Ray};
+pub use shape::{Shape, SurfacePoint};
+pub use sphere::Sphere;
+pub use triangle::{barycentric, intersect_triangle};
+
+pub use glam::Vec3;

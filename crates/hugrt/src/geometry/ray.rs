@@ -1,0 +1,77 @@
+use glam::Vec3;
+
+/// A ray `origin + t * dir` for `t` in `[tmin, tmax]`. The direction need not be unit length:
+/// every `t` reported by hugrt is in units of `dir`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ray {
+    pub origin: Vec3,
+    pub dir: Vec3,
+    pub tmin: f32,
+    pub tmax: f32,
+}
+
+impl Ray {
+    pub fn new(origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> Self {
+        Ray {
+            origin,
+            dir,
+            tmin,
+            tmax,
+        }
+    }
+
+    /// Whether the ray can hit anything: finite origin, finite non-zero direction and an
+    /// interval `[tmin, tmax]` that is not empty or NaN (`tmax` may be infinite). Every query
+    /// returns no hit for other rays, rather than a garbage hit or a walk that never ends.
+    pub fn is_traceable(&self) -> bool {
+        self.origin.is_finite()
+            && self.dir.is_finite()
+            && self.dir != Vec3::ZERO
+            && self.tmin <= self.tmax
+            && self.tmin < f32::INFINITY
+    }
+
+    pub fn at(&self, t: f32) -> Vec3 {
+        self.origin + self.dir * t
+    }
+}
+
+/// A ray with the per-ray constants that every box and triangle test would otherwise recompute:
+/// the inverse direction (slab tests, 3D-DDA) and the shear of Woop, Benthin and Wald (2013,
+/// "Watertight Ray/Triangle Intersection", §3) that maps the ray onto the +z axis.
+#[derive(Clone, Copy, Debug)]
+pub struct PreparedRay {
+    pub ray: Ray,
+    pub inv_dir: Vec3,
+    /// Axis permutation: `kz` is the axis where `|dir|` is largest; `kx`, `ky` follow it
+    /// cyclically, swapped when `dir[kz] < 0` so that the winding of triangles is kept.
+    pub k: [usize; 3],
+    /// Shear constants `(Sx, Sy, Sz)`.
+    pub shear: Vec3,
+}
+
+impl PreparedRay {
+    pub fn new(ray: &Ray) -> Self {
+        let d = ray.dir;
+        let a = d.abs();
+        let kz = if a.x >= a.y && a.x >= a.z {
+            0
+        } else if a.y >= a.z {
+            1
+        } else {
+            2
+        };
+        let mut kx = (kz + 1) % 3;
+        let mut ky = (kx + 1) % 3;
+        if d[kz] < 0.0 {
+            std::mem::swap(&mut kx, &mut ky);
+        }
+        let sz = 1.0 / d[kz];
+        PreparedRay {
+            ray: *ray,
+            inv_dir: Vec3::ONE / d,
+            k: [kx, ky, kz],
+            shear: Vec3::new(d[kx] * sz, d[ky] * sz, sz),
+        }
+    }
+}

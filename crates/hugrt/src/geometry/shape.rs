@@ -1,0 +1,242 @@
+use super::{Aabb, Cone, PreparedRay, Sphere, barycentric, intersect_triangle};
+use glam::Vec3;
+
+/// One primitive of a scene. Polygons are stored as the triangles of their triangulation;
+/// patches are triangles whose per-vertex normals live in the scene's normal table.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Shape {
+    Triangle([Vec3; 3]),
+    /// A triangle with interpolated shading normals, at `normals` in the scene's patch table.
+    Patch {
+        v: [Vec3; 3],
+        normals: u32,
+    },
+    Sphere(Sphere),
+    Cone(Cone),
+}
+
+/// What shading needs at a hit point.
+#[derive(Clone, Copy, Debug)]
+pub struct SurfacePoint {
+    pub point: Vec3,
+    /// Unit normal of the surface's front (outside) side.
+    pub geometric_normal: Vec3,
+    /// Unit shading normal, on the same side as the geometric normal.
+    pub shading_normal: Vec3,
+}
+
+impl Shape {
+    pub fn bounds(&self) -> Aabb {
+        match self {
+            Shape::Triangle(v) | Shape::Patch { v, .. } => Aabb::from_points(v),
+            Shape::Sphere(s) => s.bounds(),
+            Shape::Cone(c) => c.bounds(),
+        }
+    }
+
+    #[inline]
+    pub fn intersect(&self, r: &PreparedRay, tmin: f32, tmax: f32) -> Option<f32> {
+        match self {
+            Shape::Triangle(v) | Shape::Patch { v, .. } => intersect_triangle(r, v, tmin, tmax),
+            Shape::Sphere(s) => s.intersect(r, tmin, tmax),
+            Shape::Cone(c) => c.intersect(r, tmin, tmax),
+        }
+    }
+
+    /// Exact "does the primitive touch this box" test for the grids' optional pruning
+    /// (EG95 §1.2.1): separating axes for triangles (Akenine-Möller 2001), the box–sphere
+    /// distance for spheres, the bounding box for cones. Conservative: the box is widened by a
+    /// relative epsilon so rounding never drops a true overlap.
+    pub fn overlaps_box(&self, b: &Aabb) -> bool {
+        let b = b.expand(1e-5 * (b.extent().max_element() + b.magnitude() * 1e-2));
+        match self {
+            Shape::Triangle(v) | Shape::Patch { v, .. } => triangle_overlaps_box(v, &b),
+            Shape::Sphere(s) => {
+                let q = s.center.clamp(b.min, b.max);
+                q.distance_squared(s.center) <= s.radius * s.radius
+            }
+            Shape::Cone(c) => c.bounds().overlaps(&b),
+        }
+    }
+
+    /// Hit point and normals for shading, recomputed once per hit from `t`.
+    pub fn surface(&self, ray: &PreparedRay, t: f32, patch_normals: &[[Vec3; 3]]) -> SurfacePoint {
+        let p = ray.ray.at(t);
+        let (ng, ns) = match self {
+            Shape::Triangle(v) => {
+                let n = (v[1] - v[0]).cross(v[2] - v[0]).normalize_or_zero();
+                (n, n)
+            }
+            Shape::Patch { v, normals } => {
+                let ng = (v[1] - v[0]).cross(v[2] - v[0]).normalize_or_zero();
+                let b = barycentric(v, p);
+                let vn = patch_normals[*normals as usize];
+                let mut ns = (vn[0] * b.x + vn[1] * b.y + vn[2] * b.z).normalize_or_zero();
+                if ns == Vec3::ZERO {
+                    ns = ng;
+                } else if ns.dot(ng) < 0.0 {
+                    // Vertex normals given against the winding: the winding decides the front.
+                    ns = -ns;
+                }
+                (ng, ns)
+            }
+            Shape::Sphere(s) => {
+                let n = ((p - s.center) / s.radius).normalize_or_zero();
+                (n, n)
+            }
+            Shape::Cone(c) => {
+                let mut n = c.normal(p);
+                if c.base_radius < 0.0 && c.apex_radius < 0.0 {
+                    n = -n;
+                }
+                (n, n)
+            }
+        };
+        SurfacePoint {
+            point: p,
+            geometric_normal: ng,
+            shading_normal: ns,
+        }
+    }
+}
+
+fn triangle_overlaps_box(v: &[Vec3; 3], b: &Aabb) -> bool {
+    let c = b.center();
+    let h = b.extent() * 0.5;
+    let p = v.map(|x| x - c);
+    let e = [p[1] - p[0], p[2] - p[1], p[0] - p[2]];
+    let separated = |axis: Vec3| {
+        if axis == Vec3::ZERO {
+            return false;
+        }
+        let proj = p.map(|x| x.dot(axis));
+        let r = h.dot(axis.abs());
+        proj.iter().cloned().fold(f32::INFINITY, f32::min) > r
+            || proj.iter().cloned().fold(f32::NEG_INFINITY, f32::max) < -r
+    };
+    for ei in e {
+        for a in [Vec3::X, Vec3::Y, Vec3::Z] {
+            if separated(a.cross(ei)) {
+                return false;
+            }
+        }
+    }
+    for a in [Vec3::X, Vec3::Y, Vec3::Z] {
+        if separated(a) {
+            return false;
+        }
+    }
+    !separated(e[0].cross(e[1]))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::Ray;
+
+    fn prep(o: Vec3, d: Vec3) -> PreparedRay {
+        PreparedRay::new(&Ray::new(o, d, 0.0, f32::INFINITY))
+    }
+
+    #[test]
+    fn triangle_hit_both_sides_and_degenerate_never() {
+        let tri = Shape::Triangle([Vec3::ZERO, Vec3::X, Vec3::Y]);
+        let t = tri.intersect(&prep(Vec3::new(0.2, 0.2, 1.0), -Vec3::Z), 0.0, 10.0);
+        assert_eq!(t, Some(1.0));
+        let t = tri.intersect(&prep(Vec3::new(0.2, 0.2, -2.0), Vec3::Z * 2.0), 0.0, 10.0);
+        assert_eq!(t, Some(1.0));
+        let deg = Shape::Triangle([Vec3::ZERO, Vec3::X, Vec3::X * 2.0]);
+        assert_eq!(
+            deg.intersect(&prep(Vec3::new(0.5, 0.0, 1.0), -Vec3::Z), 0.0, 9.0),
+            None
+        );
+        let point = Shape::Triangle([Vec3::ONE; 3]);
+        assert_eq!(
+            point.intersect(&prep(Vec3::new(1., 1., 0.), Vec3::Z), 0.0, 9.0),
+            None
+        );
+    }
+
+    #[test]
+    fn shared_edge_is_watertight() {
+        // Two triangles sharing the diagonal of the unit square; rays exactly on the diagonal.
+        let a = Shape::Triangle([Vec3::ZERO, Vec3::X, Vec3::ONE.with_z(0.0)]);
+        let b = Shape::Triangle([Vec3::ZERO, Vec3::ONE.with_z(0.0), Vec3::Y]);
+        for i in 0..=100 {
+            let s = i as f32 / 100.0;
+            let r = prep(Vec3::new(s, s, 1.0), Vec3::new(0.0, 0.0, -1.0));
+            let hit = a.intersect(&r, 0.0, 9.0).or(b.intersect(&r, 0.0, 9.0));
+            assert!(
+                hit.is_some(),
+                "ray through the shared edge at {s} slipped through"
+            );
+        }
+    }
+
+    #[test]
+    fn sphere_and_cylinder() {
+        let s = Shape::Sphere(Sphere {
+            center: Vec3::ZERO,
+            radius: 1.0,
+        });
+        let t = s
+            .intersect(&prep(Vec3::new(0., 0., 5.), -Vec3::Z), 0.0, 100.0)
+            .unwrap();
+        assert!((t - 4.0).abs() < 1e-6);
+        let inside = s.intersect(&prep(Vec3::ZERO, Vec3::X), 0.0, 100.0).unwrap();
+        assert!((inside - 1.0).abs() < 1e-6);
+        let c = Shape::Cone(Cone {
+            base: Vec3::ZERO,
+            base_radius: 1.0,
+            apex: Vec3::Z * 2.0,
+            apex_radius: 1.0,
+        });
+        let t = c
+            .intersect(&prep(Vec3::new(5., 0., 1.), -Vec3::X), 0.0, 100.0)
+            .unwrap();
+        assert!((t - 4.0).abs() < 1e-5);
+        // Open cylinder: a ray along the axis passes through.
+        assert_eq!(
+            c.intersect(&prep(Vec3::new(0., 0., -5.), Vec3::Z), 0.0, 100.0),
+            None
+        );
+        // Cone to a point: radius 0.5 at mid height.
+        let k = Shape::Cone(Cone {
+            base: Vec3::ZERO,
+            base_radius: 1.0,
+            apex: Vec3::Z * 2.0,
+            apex_radius: 0.0,
+        });
+        let t = k
+            .intersect(&prep(Vec3::new(5., 0., 1.), -Vec3::X), 0.0, 100.0)
+            .unwrap();
+        assert!((t - 4.5).abs() < 1e-5);
+        let n = k
+            .surface(&prep(Vec3::new(5., 0., 1.), -Vec3::X), t, &[])
+            .geometric_normal;
+        assert!(n.x > 0.0 && n.z > 0.0);
+        let bb = k.bounds();
+        assert!((bb.min - Vec3::new(-1., -1., 0.)).length() < 1e-6);
+    }
+
+    #[test]
+    fn triangle_box_overlap() {
+        let b = Aabb::new(Vec3::ZERO, Vec3::ONE);
+        let inside = [Vec3::splat(0.2), Vec3::splat(0.3), Vec3::new(0.2, 0.5, 0.3)];
+        assert!(triangle_overlaps_box(&inside, &b));
+        // Big triangle whose plane cuts the box corner.
+        let cut = [
+            Vec3::new(-5., 0.5, 0.5),
+            Vec3::new(5., 0.5, 0.5),
+            Vec3::new(0., 5., 0.5),
+        ];
+        assert!(triangle_overlaps_box(&cut, &b));
+        // Bounding boxes overlap, but the triangle passes beside the box.
+        let beside = [
+            Vec3::new(3., 0., 0.5),
+            Vec3::new(0., 3., 0.5),
+            Vec3::new(3., 3., 0.5),
+        ];
+        assert!(!triangle_overlaps_box(&beside, &b));
+    }
+}

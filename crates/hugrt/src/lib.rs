@@ -1,0 +1,16 @@
+//! hugrt: a ray-shooting engine and a laboratory for spatial data structures, built around the
+//! Hierarchy of Uniform Grids of Cazals, Drettakis and Puech (Eurographics 1995).
+//!
+//! * [`geometry`]: rays, boxes, primitives and their intersection tests.
+//! * [`scene`]: the scene model, the NFF/PLY/OBJ readers and procedural scenes.
+//! * [`accel`]: the spatial structures, all behind [`accel::Accel`], chosen by spec strings.
+//! * [`render`]: the Whitted renderer of the SPD test procedure.
+//! * [`stats`]: scene statistics (SCG97 Fig. 4).
+//! * [`batch`]: batch ray queries in the `hugrt trace` file format.
+
+pub mod accel;
+pub mod batch;
+pub mod geometry;
+pub mod render;
+pub mod scene;
+pub mod stats;

@@ -1,0 +1,45 @@
+use thiserror::Error;
+
+/// Why a scene could not be read. Text formats say `file:line`, binary PLY the element.
+#[derive(Debug, Error)]
+pub enum SceneError {
+    #[error("{path}: {source}")]
+    Io {
+        path: String,
+        source: std::io::Error,
+    },
+    #[error("{path}:{line}: {reason}")]
+    Parse {
+        path: String,
+        line: usize,
+        reason: String,
+    },
+    #[error("{path}: {reason}")]
+    Invalid { path: String, reason: String },
+    #[error(
+        "{path}: unknown scene format (expected .nff, .ply or .obj, optionally followed by .gz)"
+    )]
+    UnknownFormat { path: String },
+}
+
+impl SceneError {
+    pub(crate) fn io(path: &str, source: std::io::Error) -> Self {
+        SceneError::Io {
+            path: path.to_string(),
+            source,
+        }
+    }
+    pub(crate) fn parse(path: &str, line: usize, reason: impl Into<String>) -> Self {
+        SceneError::Parse {
+            path: path.to_string(),
+            line,
+            reason: reason.into(),
+        }
+    }
+    pub(crate) fn invalid(path: &str, reason: impl Into<String>) -> Self {
+        SceneError::Invalid {
+            path: path.to_string(),
+            reason: reason.into(),
+        }
+    }
+}

@@ -1,0 +1,223 @@
+//! Scenes: primitives, materials, lights and a camera, read from NFF, PLY or OBJ files
+//! (each optionally gzip-compressed) or generated in code.
+
+mod error;
+mod nff;
+mod obj;
+mod ply;
+pub mod procedural;
+
+pub use error::SceneError;
+
+use crate::accel::Primitives;
+use crate::geometry::{Aabb, PreparedRay, Shape, Vec3};
+use std::io::Read;
+use std::path::Path;
+
+/// NFF material (`f r g b Kd Ks Shine T ior`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Material {
+    pub color: Vec3,
+    pub kd: f32,
+    pub ks: f32,
+    pub shine: f32,
+    pub transmittance: f32,
+    pub ior: f32,
+}
+
+impl Default for Material {
+    /// Matte light grey: what meshes without materials are shown with.
+    fn default() -> Self {
+        Material {
+            color: Vec3::splat(0.8),
+            kd: 1.0,
+            ks: 0.0,
+            shine: 0.0,
+            transmittance: 0.0,
+            ior: 1.0,
+        }
+    }
+}
+
+/// A positional light.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Light {
+    pub position: Vec3,
+    pub color: Vec3,
+}
+
+/// NFF viewpoint. `fov_deg` is the full angle between the top and bottom (or left and right)
+/// edges of the image.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    pub from: Vec3,
+    pub at: Vec3,
+    pub up: Vec3,
+    pub fov_deg: f32,
+    pub width: u32,
+    pub height: u32,
+}
+
+impl Camera {
+    /// The default view of a mesh (as `../shared/scenes/meshes` and embree-peer's `gen_rays.py`
+    /// use it): look at the box centre from 1.5 diagonals away along (1, 0.6, 1.4), 45°.
+    pub fn framing(b: &Aabb) -> Camera {
+        let c = b.center();
+        let diag = b.diagonal().max(1e-6);
+        Camera {
+            from: c + Vec3::new(1.0, 0.6, 1.4).normalize() * 1.5 * diag,
+            at: c,
+            up: Vec3::Y,
+            fov_deg: 45.0,
+            width: 512,
+            height: 512,
+        }
+    }
+}
+
+/// Largest image side accepted from a file (a resolution line is untrusted input).
+pub const MAX_RESOLUTION: u32 = 16384;
+
+/// A scene ready for ray shooting. Primitive `i` is `shapes[i]`; for PLY and OBJ files that is
+/// the `i`-th triangle in file order (polygons fanned in order).
+#[derive(Clone, Debug)]
+pub struct Scene {
+    pub shapes: Vec<Shape>,
+    /// Materials by runs: `(first primitive, material index)`, sorted by first primitive.
+    pub material_runs: Vec<(u32, u32)>,
+    pub materials: Vec<Material>,
+    /// Per-vertex normals of patches, indexed by [`Shape::Patch::normals`].
+    pub patch_normals: Vec<[Vec3; 3]>,
+    pub lights: Vec<Light>,
+    pub camera: Camera,
+    pub background: Vec3,
+}
+
+impl Scene {
+    /// Reads a scene file: `.nff`, `.ply` or `.obj`, each also as `.gz` (detected by content).
+    pub fn load(path: impl AsRef<Path>) -> Result<Scene, SceneError> {
+        let path = path.as_ref();
+        let name = path.display().to_string();
+        let raw = std::fs::read(path).map_err(|e| SceneError::io(&name, e))?;
+        Scene::from_bytes(&name, &raw)
+    }
+
+    /// Parses scene data; `name`'s extension picks the format, as in [`Scene::load`].
+    pub fn from_bytes(name: &str, raw: &[u8]) -> Result<Scene, SceneError> {
+        let unzipped;
+        let data = if raw.starts_with(&[0x1f, 0x8b]) {
+            unzipped = gunzip(raw).map_err(|e| SceneError::io(name, e))?;
+            &unzipped[..]
+        } else {
+            raw
+        };
+        let name = name.to_string();
+        let lower = name.to_ascii_lowercase();
+        let stem = lower.strip_suffix(".gz").unwrap_or(&lower);
+        if stem.ends_with(".nff") {
+            nff::parse(&name, data)
+        } else if stem.ends_with(".ply") {
+            ply::parse(&name, data)
+        } else if stem.ends_with(".obj") {
+            obj::parse(&name, data)
+        } else {
+            Err(SceneError::UnknownFormat { path: name })
+        }
+    }
+
+    /// A triangle mesh with one default material, one light at the eye, and the framing camera.
+    pub fn from_triangles(triangles: Vec<[Vec3; 3]>) -> Scene {
+        let shapes: Vec<Shape> = triangles.into_iter().map(Shape::Triangle).collect();
+        let mut scene = Scene {
+            shapes,
+            material_runs: vec![(0, 0)],
+            materials: vec![Material::default()],
+            patch_normals: Vec::new(),
+            lights: Vec::new(),
+            camera: Camera::framing(&Aabb::EMPTY),
+            background: Vec3::splat(0.05),
+        };
+        scene.frame_camera_and_light();
+        scene
+    }
+
+    fn frame_camera_and_light(&mut self) {
+        let b = self.bounds();
+        self.camera = Camera::framing(&if b.is_empty() {
+            Aabb::new(Vec3::ZERO, Vec3::ONE)
+        } else {
+            b
+        });
+        let up = Vec3::Y * b.diagonal().max(1.0);
+        self.lights = vec![Light {
+            position: self.camera.from + up,
+            color: Vec3::ONE,
+        }];
+    }
+
+    pub fn bounds(&self) -> Aabb {
+        self.shapes
+            .iter()
+            .fold(Aabb::EMPTY, |b, s| b.union(&s.bounds()))
+    }
+
+    pub fn material(&self, prim: u32) -> &Material {
+        let run = self
+            .material_runs
+            .partition_point(|&(first, _)| first <= prim);
+        let m = self
+            .material_runs
+            .get(run.wrapping_sub(1))
+            .map_or(0, |r| r.1);
+        &self.materials[m as usize]
+    }
+
+    /// Bytes held by the primitives, materials and normals.
+    pub fn memory_bytes(&self) -> usize {
+        self.shapes.capacity() * std::mem::size_of::<Shape>()
+            + self.patch_normals.capacity() * 36
+            + self.material_runs.capacity() * 8
+            + self.materials.capacity() * std::mem::size_of::<Material>()
+    }
+}
+
+impl Primitives for Scene {
+    fn len(&self) -> usize {
+        self.shapes.len()
+    }
+    fn bounds(&self, i: usize) -> Aabb {
+        self.shapes[i].bounds()
+    }
+    #[inline]
+    fn intersect(&self, i: usize, ray: &PreparedRay, tmin: f32, tmax: f32) -> Option<f32> {
+        self.shapes[i].intersect(ray, tmin, tmax)
+    }
+    fn overlaps_box(&self, i: usize, b: &Aabb) -> bool {
+        self.shapes[i].overlaps_box(b)
+    }
+}
+
+/// Decompressed size limit: far above any real scene, below the machine's memory.
+const MAX_DECOMPRESSED: u64 = 8 << 30;
+
+fn gunzip(raw: &[u8]) -> std::io::Result<Vec<u8>> {
+    let mut out = Vec::new();
+    flate2::read::MultiGzDecoder::new(raw)
+        .take(MAX_DECOMPRESSED + 1)
+        .read_to_end(&mut out)?;
+    if out.len() as u64 > MAX_DECOMPRESSED {
+        return Err(std::io::Error::other("decompressed data larger than 8 GiB"));
+    }
+    Ok(out)
+}
+
+/// Checks that a coordinate read from a file is finite, naming what it is otherwise.
+pub(crate) fn finite(x: f32) -> Result<f32, String> {
+    if x.is_nan() {
+        Err("coordinate is NaN".into())
+    } else if x.is_infinite() {
+        Err("coordinate is infinite".into())
+    } else {
+        Ok(x)
+    }
+}

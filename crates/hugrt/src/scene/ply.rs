@@ -1,0 +1,152 @@
+//! PLY meshes (ascii and binary, either endianness), read with the `ply-rs-bw` crate: vertices
+//! `x y z` (float or double), faces `vertex_indices` (or `vertex_index`) of any integer type;
+//! other elements and properties are skipped. Faces with more than three vertices are fanned in
+//! order, so triangle `i` is the `i`-th triangle in file order.
+
+use super::{Scene, SceneError, finite};
+use crate::geometry::Vec3;
+use ply_rs_bw::parser::{Parser, Reader};
+use ply_rs_bw::ply::{Property, PropertyAccess};
+
+#[derive(Default)]
+struct Vertex([f64; 3]);
+
+impl PropertyAccess for Vertex {
+    fn new() -> Self {
+        Vertex::default()
+    }
+    fn set_property(&mut self, name: &str, p: Property) -> ply_rs_bw::ply::PropertyAccessResult {
+        let axis = match name {
+            "x" => 0,
+            "y" => 1,
+            "z" => 2,
+            _ => return ply_rs_bw::ply::PropertyAccessResult::Ignored,
+        };
+        self.0[axis] = match p {
+            Property::Float(x) => x as f64,
+            Property::Double(x) => x,
+            Property::Char(x) => x as f64,
+            Property::UChar(x) => x as f64,
+            Property::Short(x) => x as f64,
+            Property::UShort(x) => x as f64,
+            Property::Int(x) => x as f64,
+            Property::UInt(x) => x as f64,
+            _ => return ply_rs_bw::ply::PropertyAccessResult::UnsupportedType,
+        };
+        ply_rs_bw::ply::PropertyAccessResult::Set
+    }
+}
+
+#[derive(Default)]
+struct Face(Vec<i64>);
+
+impl PropertyAccess for Face {
+    fn new() -> Self {
+        Face::default()
+    }
+    fn set_property(&mut self, name: &str, p: Property) -> ply_rs_bw::ply::PropertyAccessResult {
+        if name != "vertex_indices" && name != "vertex_index" {
+            return ply_rs_bw::ply::PropertyAccessResult::Ignored;
+        }
+        fn widen<T: Into<i64>>(v: Vec<T>) -> Vec<i64> {
+            v.into_iter().map(Into::into).collect()
+        }
+        self.0 = match p {
+            Property::ListChar(v) => widen(v),
+            Property::ListUChar(v) => widen(v),
+            Property::ListShort(v) => widen(v),
+            Property::ListUShort(v) => widen(v),
+            Property::ListInt(v) => widen(v),
+            Property::ListUInt(v) => widen(v),
+            _ => return ply_rs_bw::ply::PropertyAccessResult::UnsupportedType,
+        };
+        ply_rs_bw::ply::PropertyAccessResult::Set
+    }
+}
+
+/// Any other element: read and dropped.
+struct Skip;
+
+impl PropertyAccess for Skip {
+    fn new() -> Self {
+        Skip
+    }
+}
+
+pub fn parse(path: &str, data: &[u8]) -> Result<Scene, SceneError> {
+    let ply_err = |e: ply_rs_bw::parser::ParseError| SceneError::invalid(path, format!("PLY: {e}"));
+    let mut reader = Reader::new(std::io::BufReader::new(data));
+    let header = Parser::<Skip>::new()
+        .read_header(&mut reader)
+        .map_err(ply_err)?;
+    let mut vertices: Option<Vec<Vertex>> = None;
+    let mut faces: Option<Vec<Face>> = None;
+    for (name, def) in header.elements.iter() {
+        match name.as_str() {
+            "vertex" => {
+                vertices = Some(
+                    Parser::<Vertex>::new()
+                        .read_payload_for_element(&mut reader, def, &header)
+                        .map_err(ply_err)?,
+                )
+            }
+            "face" => {
+                faces = Some(
+                    Parser::<Face>::new()
+                        .read_payload_for_element(&mut reader, def, &header)
+                        .map_err(ply_err)?,
+                )
+            }
+            _ => {
+                Parser::<Skip>::new()
+                    .read_payload_for_element(&mut reader, def, &header)
+                    .map_err(ply_err)?;
+            }
+        }
+    }
+    let vertices = vertices.ok_or_else(|| SceneError::invalid(path, "PLY: no 'vertex' element"))?;
+    let faces = faces.ok_or_else(|| SceneError::invalid(path, "PLY: no 'face' element"))?;
+    let points: Vec<Vec3> = vertices
+        .iter()
+        .enumerate()
+        .map(|(i, v)| {
+            let c = v.0.map(|x| finite(x as f32));
+            match c {
+                [Ok(x), Ok(y), Ok(z)] => Ok(Vec3::new(x, y, z)),
+                _ => Err(SceneError::invalid(
+                    path,
+                    format!("PLY: vertex {i}: coordinate is NaN or infinite (or beyond f32)"),
+                )),
+            }
+        })
+        .collect::<Result<_, _>>()?;
+    let mut triangles = Vec::with_capacity(faces.len());
+    for (f, face) in faces.iter().enumerate() {
+        let mut idx = Vec::with_capacity(face.0.len());
+        for &i in &face.0 {
+            if i < 0 || i as usize >= points.len() {
+                return Err(SceneError::invalid(
+                    path,
+                    format!(
+                        "PLY: face {f}: vertex index {i} out of range ({} vertices)",
+                        points.len()
+                    ),
+                ));
+            }
+            idx.push(points[i as usize]);
+        }
+        if idx.len() < 3 {
+            return Err(SceneError::invalid(
+                path,
+                format!("PLY: face {f}: {} vertices, need 3 or more", idx.len()),
+            ));
+        }
+        for k in 1..idx.len() - 1 {
+            triangles.push([idx[0], idx[k], idx[k + 1]]);
+        }
+    }
+    if triangles.len() >= u32::MAX as usize - 1 {
+        return Err(SceneError::invalid(path, "PLY: more than 2^32-2 triangles"));
+    }
+    Ok(Scene::from_triangles(triangles))
+}

@@ -1,0 +1,109 @@
+//! Every structure against brute force, on random and adversarial scenes and rays.
+
+mod common;
+
+use common::*;
+use hugrt::accel::Primitives;
+use proptest::prelude::*;
+
+fn check_all(scene: &hugrt::scene::Scene, ray_seed: u64, n_rays: usize) {
+    let rays = rays_for(&scene.bounds(), ray_seed, n_rays);
+    for spec in specs() {
+        assert_agrees(scene, &spec, &rays);
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 12, ..ProptestConfig::default() })]
+
+    #[test]
+    fn random_triangle_soups(seed in any::<u64>(), n in 1usize..400) {
+        check_all(&triangle_soup(seed, n), seed ^ 1, 400);
+    }
+
+    #[test]
+    fn clustered_soups(seed in any::<u64>(), n in 1usize..600) {
+        check_all(&clustered_soup(seed, n), seed ^ 2, 400);
+    }
+
+    #[test]
+    fn axis_aligned_and_coplanar(seed in any::<u64>(), n in 1usize..300) {
+        check_all(&axis_aligned(seed, n), seed ^ 3, 600);
+    }
+
+    #[test]
+    fn spheres_cones_polygons(seed in any::<u64>(), n in 1usize..200) {
+        check_all(&mixed(seed, n), seed ^ 4, 400);
+    }
+}
+
+#[test]
+fn empty_and_single_primitive_scenes() {
+    for n in [0, 1] {
+        let s = triangle_soup(7, n);
+        check_all(&s, 5, 200);
+        assert_eq!(s.len(), n);
+    }
+}
+
+#[test]
+fn degenerate_rays_give_no_hit_and_no_hang() {
+    use hugrt::accel::{AnyAccel, NoCounters};
+    use hugrt::geometry::{Ray, Vec3};
+    let s = triangle_soup(3, 200);
+    for spec in specs() {
+        let a = AnyAccel::build(&s, &spec).unwrap();
+        for r in [
+            Ray::new(Vec3::ZERO, Vec3::ZERO, 0.0, f32::INFINITY),
+            Ray::new(
+                Vec3::ZERO,
+                Vec3::new(f32::NAN, 1.0, 0.0),
+                0.0,
+                f32::INFINITY,
+            ),
+            Ray::new(Vec3::splat(f32::NAN), Vec3::X, 0.0, f32::INFINITY),
+            Ray::new(Vec3::ZERO, Vec3::X, f32::NAN, f32::NAN),
+            Ray::new(Vec3::ZERO, Vec3::X, 1.0, 0.0),
+        ] {
+            assert_eq!(a.closest_hit(&s, &r, &mut NoCounters), None, "{spec} {r:?}");
+        }
+    }
+}
+
+#[test]
+fn all_objects_in_one_cell_and_huge_overlaps_stay_bounded() {
+    use hugrt::accel::AnyAccel;
+    use hugrt::geometry::{Shape, Vec3};
+    // 3000 long thin triangles crossing the whole box: box binning would store ~n² references.
+    let mut r = rng(9);
+    let shapes: Vec<Shape> = (0..3000)
+        .map(|_| {
+            let a = v3(&mut r, -1.0, 1.0);
+            Shape::Triangle([a * 100.0, -a * 100.0, a * 100.0 + Vec3::splat(0.01)])
+        })
+        .collect();
+    let s = scene_of(shapes);
+    let g = AnyAccel::build(&s, "grid").unwrap();
+    assert!(
+        g.memory_bytes() < 64 * 4 * 3000 + (8 << 20),
+        "{} bytes",
+        g.memory_bytes()
+    );
+    assert_agrees(&s, "grid", &rays_for(&s.bounds(), 1, 200));
+    // Scales 10^10 apart: one huge triangle and a swarm of tiny ones.
+    let mut shapes = vec![Shape::Triangle([
+        Vec3::new(-1e5, -1e5, 0.0),
+        Vec3::new(1e5, -1e5, 0.0),
+        Vec3::new(0.0, 1e5, 0.0),
+    ])];
+    for _ in 0..500 {
+        let c = v3(&mut r, -1.0, 1.0);
+        shapes.push(Shape::Triangle([
+            c,
+            c + Vec3::new(1e-5, 0.0, 0.0),
+            c + Vec3::new(0.0, 1e-5, 1e-5),
+        ]));
+    }
+    let s = scene_of(shapes);
+    check_all(&s, 11, 300);
+}

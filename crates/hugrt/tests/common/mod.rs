@@ -1,0 +1,263 @@
+//! Scene and ray generators shared by the integration tests, and the comparison against
+//! brute force that every structure must pass.
+#![allow(dead_code)]
+
+use hugrt::accel::{AnyAccel, Hit, NoCounters, Primitives, STRUCTURES};
+use hugrt::geometry::{Aabb, Cone, Ray, Shape, Sphere, Vec3};
+use hugrt::scene::Scene;
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64Mcg;
+
+/// Every structure with its default parameters, plus parameter settings that take other
+/// code paths. A new structure is tested by adding it to `accel::structures!`.
+pub fn specs() -> Vec<String> {
+    let mut v: Vec<String> = STRUCTURES
+        .iter()
+        .filter(|&&s| s != "brute")
+        .map(|s| s.to_string())
+        .collect();
+    v.extend(
+        [
+            "grid:density=1",
+            "grid:density=20",
+            "grid:density=0.01",
+            "grid:prune=true",
+            "grid:density=3,prune=true",
+        ]
+        .map(String::from),
+    );
+    v
+}
+
+pub fn rng(seed: u64) -> Pcg64Mcg {
+    Pcg64Mcg::seed_from_u64(seed)
+}
+
+pub fn v3(r: &mut Pcg64Mcg, lo: f32, hi: f32) -> Vec3 {
+    Vec3::new(
+        r.random_range(lo..hi),
+        r.random_range(lo..hi),
+        r.random_range(lo..hi),
+    )
+}
+
+pub fn scene_of(shapes: Vec<Shape>) -> Scene {
+    let tris: Vec<[Vec3; 3]> = Vec::new();
+    let mut s = Scene::from_triangles(tris);
+    s.shapes = shapes;
+    s
+}
+
+/// Random triangles of mixed sizes in a unit-ish box.
+pub fn triangle_soup(seed: u64, n: usize) -> Scene {
+    let mut r = rng(seed);
+    let shapes = (0..n)
+        .map(|_| {
+            let c = v3(&mut r, -1.0, 1.0);
+            let s = 10f32.powf(r.random_range(-2.5..-0.3));
+            Shape::Triangle([
+                c + v3(&mut r, -s, s),
+                c + v3(&mut r, -s, s),
+                c + v3(&mut r, -s, s),
+            ])
+        })
+        .collect();
+    scene_of(shapes)
+}
+
+/// Tiny dense clusters in a huge empty box (the HUG's case), plus two huge triangles.
+pub fn clustered_soup(seed: u64, n: usize) -> Scene {
+    let mut r = rng(seed);
+    let centres: Vec<Vec3> = (0..4).map(|_| v3(&mut r, -1000.0, 1000.0)).collect();
+    let mut shapes: Vec<Shape> = (0..n)
+        .map(|i| {
+            let c = centres[i % centres.len()] + v3(&mut r, -1.0, 1.0);
+            let s = 0.05;
+            Shape::Triangle([
+                c + v3(&mut r, -s, s),
+                c + v3(&mut r, -s, s),
+                c + v3(&mut r, -s, s),
+            ])
+        })
+        .collect();
+    shapes.push(Shape::Triangle([
+        Vec3::new(-1000., -1000., -1000.),
+        Vec3::new(1000., -1000., -1000.),
+        Vec3::new(0., 1000., 1000.),
+    ]));
+    shapes.push(Shape::Triangle([
+        Vec3::new(-1000., 1000., -1000.),
+        Vec3::new(1000., 1000., 500.),
+        Vec3::new(0., -1000., 1000.),
+    ]));
+    scene_of(shapes)
+}
+
+/// Axis-aligned triangles on a lattice of planes, many coplanar and overlapping, with
+/// vertices on the planes the grids are likely to cut at; plus degenerate ones.
+pub fn axis_aligned(seed: u64, n: usize) -> Scene {
+    let mut r = rng(seed);
+    let q = |r: &mut Pcg64Mcg| r.random_range(0..9) as f32 * 0.25;
+    let shapes = (0..n)
+        .map(|i| {
+            let axis = i % 3;
+            let k = q(&mut r);
+            let mut p = [Vec3::ZERO; 3];
+            for v in &mut p {
+                let (a, b) = (q(&mut r), q(&mut r));
+                *v = match axis {
+                    0 => Vec3::new(k, a, b),
+                    1 => Vec3::new(a, k, b),
+                    _ => Vec3::new(a, b, k),
+                };
+            }
+            if i % 17 == 0 {
+                p[2] = p[1]; // degenerate: kept, never hit
+            }
+            Shape::Triangle(p)
+        })
+        .collect();
+    scene_of(shapes)
+}
+
+/// Spheres, cones, cylinders and triangulated concave polygons together.
+pub fn mixed(seed: u64, n: usize) -> Scene {
+    let mut r = rng(seed);
+    let mut shapes = Vec::new();
+    for i in 0..n {
+        let c = v3(&mut r, -2.0, 2.0);
+        let s = r.random_range(0.02..0.4);
+        match i % 4 {
+            0 => shapes.push(Shape::Sphere(Sphere {
+                center: c,
+                radius: s,
+            })),
+            1 => shapes.push(Shape::Cone(Cone {
+                base: c,
+                base_radius: s * 0.5,
+                apex: c + v3(&mut r, -s * 3.0, s * 3.0),
+                apex_radius: if i % 8 == 1 { s * 0.5 } else { 0.0 },
+            })),
+            _ => {
+                // A comb-shaped concave polygon in a random plane.
+                let (u, v) = (
+                    v3(&mut r, -1.0, 1.0).normalize() * s,
+                    v3(&mut r, -1.0, 1.0).normalize() * s,
+                );
+                let mut pts = vec![c, c + u * 4.0, c + u * 4.0 + v];
+                for k in (0..2).rev() {
+                    let x = 2.0 * k as f32;
+                    pts.extend([
+                        c + u * (x + 1.0) + v,
+                        c + u * (x + 1.0) + v * 3.0,
+                        c + u * x + v * 3.0,
+                        c + u * x + v,
+                    ]);
+                }
+                for t in hugrt::geometry::triangulate_polygon(&pts) {
+                    shapes.push(Shape::Triangle(t.map(|k| pts[k])));
+                }
+            }
+        }
+    }
+    scene_of(shapes)
+}
+
+/// Rays of every awkward kind for a scene box: random, from outside, starting inside or on the
+/// boundary, parallel to axes, lying in planes at the quarter marks of the box (where grids of
+/// many resolutions put cell boundaries), with random `[tmin, tmax]` windows.
+pub fn rays_for(b: &Aabb, seed: u64, n: usize) -> Vec<Ray> {
+    let mut r = rng(seed);
+    let e = b.extent().max(Vec3::splat(1e-3));
+    let lerp = |t: Vec3| b.min + e * t;
+    let unit = |r: &mut Pcg64Mcg| loop {
+        let v = v3(r, -1.0, 1.0);
+        if v.length_squared() > 1e-4 {
+            break v;
+        }
+    };
+    let axes = [Vec3::X, Vec3::Y, Vec3::Z, -Vec3::X, -Vec3::Y, -Vec3::Z];
+    let quarter = |r: &mut Pcg64Mcg| r.random_range(0..=8) as f32 / 8.0;
+    (0..n)
+        .map(|i| {
+            let inside = lerp(v3(&mut r, 0.0, 1.0));
+            match i % 8 {
+                0 => Ray::new(inside, unit(&mut r), 0.0, f32::INFINITY),
+                1 => {
+                    let o = b.center() + unit(&mut r).normalize() * e.length() * 2.0;
+                    Ray::new(o, lerp(v3(&mut r, 0.0, 1.0)) - o, 0.0, f32::INFINITY)
+                }
+                2 => {
+                    // Parallel to an axis, through quarter-mark lines.
+                    let d = axes[r.random_range(0..6)];
+                    let o = lerp(Vec3::new(quarter(&mut r), quarter(&mut r), quarter(&mut r)))
+                        - d * e * 1.5;
+                    Ray::new(o, d * r.random_range(0.1..10.0), 0.0, f32::INFINITY)
+                }
+                3 => {
+                    // In an axis plane at a quarter mark, oblique within it.
+                    let a = r.random_range(0..3);
+                    let mut o = inside;
+                    o[a] = lerp(Vec3::splat(quarter(&mut r)))[a];
+                    let mut d = unit(&mut r);
+                    d[a] = 0.0;
+                    Ray::new(
+                        o,
+                        if d == Vec3::ZERO { Vec3::X } else { d },
+                        0.0,
+                        f32::INFINITY,
+                    )
+                }
+                4 => {
+                    // Starting on the box boundary.
+                    let mut o = inside;
+                    let a = r.random_range(0..3);
+                    o[a] = if r.random() { b.min[a] } else { b.max[a] };
+                    Ray::new(o, unit(&mut r), 0.0, f32::INFINITY)
+                }
+                5 => {
+                    let t0 = r.random_range(0.0..0.5);
+                    Ray::new(
+                        inside,
+                        unit(&mut r) * e.length(),
+                        t0,
+                        t0 + r.random_range(0.0..0.6),
+                    )
+                }
+                6 => Ray::new(inside, unit(&mut r) * 1e-3, 0.0, f32::INFINITY),
+                _ => {
+                    // Through a primitive-rich point: two random points inside.
+                    let p = lerp(v3(&mut r, 0.0, 1.0));
+                    Ray::new(inside, p - inside, 0.0, f32::INFINITY)
+                }
+            }
+        })
+        .collect()
+}
+
+/// Asserts that the structure built from `spec` answers every ray like brute force: the same
+/// primitive at the same `t` (ties go to the lower index in every structure), and any-hit
+/// finds a hit exactly when closest-hit does.
+pub fn assert_agrees<P: Primitives>(prims: &P, spec: &str, rays: &[Ray]) {
+    let brute = AnyAccel::build(prims, "brute").unwrap();
+    let accel = AnyAccel::build(prims, spec).unwrap_or_else(|e| panic!("{spec}: {e}"));
+    for (i, ray) in rays.iter().enumerate() {
+        let want: Option<Hit> = brute.closest_hit(prims, ray, &mut NoCounters);
+        let got = accel.closest_hit(prims, ray, &mut NoCounters);
+        let same = match (want, got) {
+            (None, None) => true,
+            (Some(a), Some(b)) => a.prim == b.prim || a.t == b.t,
+            _ => false,
+        };
+        assert!(
+            same,
+            "{spec}: ray {i} {ray:?}: brute {want:?}, {spec} {got:?}"
+        );
+        let any = accel.any_hit(prims, ray, &mut NoCounters);
+        assert_eq!(
+            any.is_some(),
+            want.is_some(),
+            "{spec}: any-hit disagrees on ray {i} {ray:?}"
+        );
+    }
+}
