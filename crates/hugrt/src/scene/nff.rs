@@ -131,13 +131,18 @@ pub fn parse(path: &str, data: &[u8]) -> Result<Scene, SceneError> {
                 )?;
             }
             "c" => {
-                if !args.is_empty() {
-                    return Err(l.err("cone: the 'c' line takes no numbers"));
-                }
-                let w = l.expect_words("cone base 'x y z r'", start)?;
-                let b = l.numbers::<4>(&w, "cone base")?;
-                let w = l.expect_words("cone apex 'x y z r'", start)?;
-                let a = l.numbers::<4>(&w, "cone apex")?;
+                // The SPD's own format puts base and apex on two lines after `c`; the SPD
+                // generators of this distribution write all eight numbers on the `c` line.
+                // Both are read, as the original token-stream readers did.
+                let (b, a) = if args.is_empty() {
+                    let w = l.expect_words("cone base 'x y z r'", start)?;
+                    let b = l.numbers::<4>(&w, "cone base")?;
+                    let w = l.expect_words("cone apex 'x y z r'", start)?;
+                    (b, l.numbers::<4>(&w, "cone apex")?)
+                } else {
+                    let v = l.numbers::<8>(args, "cone 'bx by bz br ax ay az ar'")?;
+                    ([v[0], v[1], v[2], v[3]], [v[4], v[5], v[6], v[7]])
+                };
                 let (base, apex) = (Vec3::new(b[0], b[1], b[2]), Vec3::new(a[0], a[1], a[2]));
                 if base == apex {
                     return Err(l.err("cone: base and apex coincide"));
