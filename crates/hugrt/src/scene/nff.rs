@@ -268,7 +268,8 @@ fn parse_view(l: &mut Lines, start: usize) -> Result<Camera, SceneError> {
         |x: f32| (x >= 1.0 && x <= MAX_RESOLUTION as f32 && x.fract() == 0.0).then_some(x as u32);
     let (Some(width), Some(height)) = (size(w), size(h)) else {
         return Err(l.err(format!(
-            "view: resolution {w} {h} is not two whole numbers in 1..={MAX_RESOLUTION}"
+            "view: resolution '{}' is not two whole numbers in 1..={MAX_RESOLUTION}",
+            res.join(" ")
         )));
     };
     if from == at || (at - from).cross(up) == Vec3::ZERO {
