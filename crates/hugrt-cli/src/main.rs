@@ -34,6 +34,7 @@ enum Command {
     /// clusters of small objects). SCENE is an .nff, .ply or .obj file (optionally .gz), or
     /// builtin:room[:TRIANGLES].
     Render {
+        /// Scene file (default: the built-in clustered room).
         scene: Option<String>,
         /// Output PNG.
         #[arg(short, long, default_value = "hugrt.png")]
@@ -67,9 +68,12 @@ enum Command {
     /// Rays: little-endian f32 records `ox oy oz tmin dx dy dz tmax` (32 bytes). Hits: per ray
     /// f32 t (+inf on a miss) then u32 primitive index (0xFFFFFFFF on a miss).
     Trace {
+        /// Scene file (.nff, .ply, .obj, optionally .gz) or builtin:room[:TRIANGLES].
         scene: String,
+        /// Rays to trace (32-byte records, no header).
         #[arg(long)]
         rays: PathBuf,
+        /// Where to write the hits (8-byte records, one per ray, in ray order).
         #[arg(long)]
         hits: PathBuf,
         #[arg(long, default_value = "grid", help = ACCEL_HELP)]
@@ -77,11 +81,17 @@ enum Command {
         /// Occlusion queries: t = 1.0 and index 0 when anything is hit.
         #[arg(long)]
         any_hit: bool,
+        /// Worker threads (default: all cores).
         #[arg(long)]
         threads: Option<usize>,
+        /// Afterwards, count ray-primitive tests, hits, ray-box tests and cells visited per
+        /// ray and level (a second, untimed pass).
+        #[arg(long)]
+        counters: bool,
     },
     /// Scene statistics (SCG97 Fig. 4) and the structure's own (cells, references, memory).
     Stats {
+        /// Scene file (.nff, .ply, .obj, optionally .gz) or builtin:room[:TRIANGLES].
         scene: String,
         #[arg(long, default_value = "grid", help = ACCEL_HELP)]
         accel: String,
@@ -114,6 +124,21 @@ fn main() {
     if let Err(e) = run(Cli::parse()) {
         eprintln!("hugrt: error: {e:#}");
         std::process::exit(1);
+    }
+}
+
+/// Prints the papers' counters per ray and per hierarchy level.
+fn print_counters(c: &hugrt::accel::RayCounters, rays: u64) {
+    let per = |x: u64| x as f64 / rays.max(1) as f64;
+    println!("per ray      #pit      #pi     #bbi      #vt");
+    for (level, l) in c.used_levels().iter().enumerate() {
+        println!(
+            "level {level}  {:8.2} {:8.3} {:8.2} {:8.2}",
+            per(l.pit),
+            per(l.pi),
+            per(l.bbi),
+            per(l.vt)
+        );
     }
 }
 
@@ -196,6 +221,9 @@ fn run(cli: Cli) -> Result<()> {
                 println!("eye rays {} (hit {}), shadow rays {} (blocked {}), reflected {}, refracted {}, secondary hits {}",
                     c.eye_rays, c.eye_hits, c.shadow_rays, c.shadow_hits, c.reflected_rays, c.refracted_rays, c.secondary_hits);
                 println!("wrote {}", output.display());
+                if let Some(k) = &out.counters {
+                    print_counters(k, c.total_rays());
+                }
                 if let Some(path) = stats_json {
                     let mut j = serde_json::to_value(c)?;
                     let o = j.as_object_mut().expect("counts serialise to an object");
@@ -224,6 +252,7 @@ fn run(cli: Cli) -> Result<()> {
             accel,
             any_hit,
             threads,
+            counters,
         } => pool(threads)?.install(|| {
             let scene = load_scene(&scene)?;
             let bytes =
@@ -245,6 +274,10 @@ fn run(cli: Cli) -> Result<()> {
                 hit_count,
                 ray_list.len() as f64 / trace_s.max(1e-9) / 1e6
             );
+            if counters {
+                let c = hugrt::batch::count(&scene, &acc, &ray_list, any_hit);
+                print_counters(&c, ray_list.len() as u64);
+            }
             Ok(())
         }),
         Command::Stats {

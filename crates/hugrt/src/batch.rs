@@ -4,7 +4,7 @@
 //! (`0xFFFFFFFF` on a miss). For any-hit queries `t` is 1.0 and the index 0 when the ray is
 //! blocked, as embree-peer writes them.
 
-use crate::accel::{AnyAccel, Hit, NoCounters, Primitives};
+use crate::accel::{AnyAccel, Hit, NoCounters, Primitives, RayCounters};
 use crate::geometry::{Ray, Vec3};
 use rayon::prelude::*;
 
@@ -77,6 +77,31 @@ pub fn trace<P: Primitives>(
             }
         })
         .collect()
+}
+
+/// The traversal counters of a batch of closest-hit (or any-hit) queries, summed over the
+/// rays: the papers' #pit, #pi, #bbi and #vt per hierarchy level. A separate pass, so that
+/// [`trace`] is timed without them.
+pub fn count<P: Primitives>(
+    prims: &P,
+    accel: &AnyAccel,
+    rays: &[Ray],
+    any_hit: bool,
+) -> RayCounters {
+    rays.par_iter()
+        .with_min_len(256)
+        .fold(RayCounters::default, |mut c, r| {
+            if any_hit {
+                accel.any_hit(prims, r, &mut c);
+            } else {
+                accel.closest_hit(prims, r, &mut c);
+            }
+            c
+        })
+        .reduce(RayCounters::default, |mut a, b| {
+            a.add(&b);
+            a
+        })
 }
 
 /// Rays as embree-peer's `gen_rays.py incoherent` makes them: origins uniform in the box,

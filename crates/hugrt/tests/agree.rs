@@ -14,7 +14,7 @@ fn check_all(scene: &hugrt::scene::Scene, ray_seed: u64, n_rays: usize) {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 12, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
 
     #[test]
     fn random_triangle_soups(seed in any::<u64>(), n in 1usize..400) {

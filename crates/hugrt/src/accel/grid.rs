@@ -42,6 +42,10 @@ pub struct Grid {
     /// `cell_start[c]..cell_start[c + 1]` are cell `c`'s references in `refs`.
     cell_start: Vec<u32>,
     refs: Vec<u32>,
+    /// One bit per cell, set when the cell holds references. Most cells of most scenes are
+    /// empty (92% on the bunny at the default density); the walk reads this 1/32-size array,
+    /// which stays in cache, and touches `cell_start` only for occupied cells.
+    occupied: Vec<u64>,
     /// Coordinate magnitude of the grid: scale of its rounding errors.
     magnitude: f32,
     prims: usize,
@@ -80,7 +84,9 @@ impl Grid {
     /// Cell coordinate of `x` on axis `a`, clamped into the grid.
     #[inline(always)]
     fn cell_coord(&self, a: usize, x: f32) -> u32 {
-        let c = ((x - self.bounds.min[a]) * self.inv_cell_size[a]).floor();
+        // Truncation is the floor for the non-negative values that survive the clamp (and NaN
+        // becomes 0); `floor` itself is a library call without SSE4.1.
+        let c = (x - self.bounds.min[a]) * self.inv_cell_size[a];
         (c.max(0.0) as u32).min(self.res[a] - 1)
     }
 
@@ -165,8 +171,15 @@ impl Grid {
                 cursor[c] += 1;
             });
         }
+        let mut occupied = vec![0u64; ncells.div_ceil(64)];
+        for c in 0..ncells {
+            if start[c] != start[c + 1] {
+                occupied[c / 64] |= 1 << (c % 64);
+            }
+        }
         self.cell_start = start;
         self.refs = refs;
+        self.occupied = occupied;
     }
 }
 
@@ -222,6 +235,7 @@ impl Accel for Grid {
             inv_cell_size: Vec3::ONE,
             cell_start: Vec::new(),
             refs: Vec::new(),
+            occupied: Vec::new(),
             magnitude,
             prims: n,
             density,
@@ -268,9 +282,10 @@ impl Accel for Grid {
         let mut out = [0i32; 3];
         // Distance to the plane `k` of axis `a`, recomputed at every step rather than
         // accumulated, so rounding does not grow with the length of the walk.
-        let plane_t = |a: usize, k: i32| {
-            ((self.bounds.min[a] + k as f32 * self.cell_size[a]) - o[a]) * inv[a]
-        };
+        // Plain arrays: indexing a `Vec3` by a run-time axis is a branch per access.
+        let (lo, size) = (self.bounds.min.to_array(), self.cell_size.to_array());
+        let (oa, inva) = (o.to_array(), inv.to_array());
+        let plane_t = |a: usize, k: i32| ((lo[a] + k as f32 * size[a]) - oa[a]) * inva[a];
         // `ahead[a]` is 1 when the next plane on axis `a` is the cell's upper one.
         let mut ahead = [0i32; 3];
         let mut t_next = [f32::INFINITY; 3];
@@ -295,10 +310,14 @@ impl Accel for Grid {
         loop {
             counters.cell_visit(0);
             let idx = cell[2] as usize * res_xy + cell[1] as usize * res_x + cell[0] as usize;
-            let (s, e) = (
-                self.cell_start[idx] as usize,
-                self.cell_start[idx + 1] as usize,
-            );
+            let (s, e) = if self.occupied[idx / 64] & (1 << (idx % 64)) != 0 {
+                (
+                    self.cell_start[idx] as usize,
+                    self.cell_start[idx + 1] as usize,
+                )
+            } else {
+                (0, 0)
+            };
             for &prim in &self.refs[s..e] {
                 if !mailbox.first_visit(prim) {
                     continue;
@@ -336,7 +355,9 @@ impl Accel for Grid {
     }
 
     fn memory_bytes(&self) -> usize {
-        std::mem::size_of::<Self>() + 4 * (self.cell_start.capacity() + self.refs.capacity())
+        std::mem::size_of::<Self>()
+            + 4 * (self.cell_start.capacity() + self.refs.capacity())
+            + 8 * self.occupied.capacity()
     }
 
     fn stats(&self) -> StructureStats {

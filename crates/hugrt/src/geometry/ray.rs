@@ -48,6 +48,12 @@ pub struct PreparedRay {
     pub k: [usize; 3],
     /// Shear constants `(Sx, Sy, Sz)`.
     pub shear: Vec3,
+    /// The permutation and shear as the rows of one matrix: `rows[0] = e_kx − Sx·e_kz`,
+    /// `rows[1] = e_ky − Sy·e_kz`, `rows[2] = Sz·e_kz`. `rows[i].dot(p)` gives the same bits
+    /// as the paper's `p[kx] − Sx·p[kz]` (the other products are by exact 1s and 0s and the
+    /// one rounded product and one rounded sum are the same), without indexing by a run-time
+    /// axis, which costs a branch per component.
+    pub rows: [Vec3; 3],
 }
 
 impl PreparedRay {
@@ -67,11 +73,18 @@ impl PreparedRay {
             std::mem::swap(&mut kx, &mut ky);
         }
         let sz = 1.0 / d[kz];
+        let shear = Vec3::new(d[kx] * sz, d[ky] * sz, sz);
+        let e = |k: usize| Vec3::AXES[k];
         PreparedRay {
             ray: *ray,
             inv_dir: Vec3::ONE / d,
             k: [kx, ky, kz],
-            shear: Vec3::new(d[kx] * sz, d[ky] * sz, sz),
+            shear,
+            rows: [
+                e(kx) - shear.x * e(kz),
+                e(ky) - shear.y * e(kz),
+                shear.z * e(kz),
+            ],
         }
     }
 }

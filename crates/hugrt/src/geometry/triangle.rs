@@ -11,18 +11,17 @@ use glam::{DVec3, Vec3};
 /// the ray) never reports a hit.
 #[inline]
 pub fn intersect_triangle(r: &PreparedRay, v: &[Vec3; 3], tmin: f32, tmax: f32) -> Option<f32> {
-    let [kx, ky, kz] = r.k;
-    let s = r.shear;
+    let [rx, ry, rz] = r.rows;
     let o = r.ray.origin;
     let a = v[0] - o;
     let b = v[1] - o;
     let c = v[2] - o;
-    let ax = a[kx] - s.x * a[kz];
-    let ay = a[ky] - s.y * a[kz];
-    let bx = b[kx] - s.x * b[kz];
-    let by = b[ky] - s.y * b[kz];
-    let cx = c[kx] - s.x * c[kz];
-    let cy = c[ky] - s.y * c[kz];
+    let ax = rx.dot(a);
+    let ay = ry.dot(a);
+    let bx = rx.dot(b);
+    let by = ry.dot(b);
+    let cx = rx.dot(c);
+    let cy = ry.dot(c);
     let mut u = cx * by - cy * bx;
     let mut vv = ax * cy - ay * cx;
     let mut w = bx * ay - by * ax;
@@ -41,9 +40,9 @@ pub fn intersect_triangle(r: &PreparedRay, v: &[Vec3; 3], tmin: f32, tmax: f32) 
     if det == 0.0 || !det.is_finite() {
         return None;
     }
-    let az = s.z * a[kz];
-    let bz = s.z * b[kz];
-    let cz = s.z * c[kz];
+    let az = rz.dot(a);
+    let bz = rz.dot(b);
+    let cz = rz.dot(c);
     let t_scaled = u * az + vv * bz + w * cz;
     // Two-sided: compare in the sign of `det` without dividing first.
     let (t_scaled, det_abs) = if det < 0.0 {
