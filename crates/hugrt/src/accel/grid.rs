@@ -21,9 +21,13 @@ use super::{Accel, Counters, Hit, Mailbox, Primitives, Spec, SpecError, Structur
 use crate::geometry::{Aabb, PreparedRay, Ray, Vec3};
 use rayon::prelude::*;
 
-/// Default cells per primitive. Chosen by measurement (`hugrt bench`, see the README):
-/// on the meshes and the clustered scene it is near the optimum of Mrays/s per byte.
-pub const DEFAULT_DENSITY: f32 = 4.0;
+/// Default cells per primitive, chosen by measurement (`docs/measurements.md`): over two
+/// meshes, the generated clustered room and four SPD scenes, `D = 2` has the best geometric
+/// mean of throughput relative to each scene's best density (0.82; 0.78 at `D = 4`, 0.73 at
+/// `D = 1`), a worst case as good as any (0.48, on SPD balls), and 36% fewer bytes than `D = 4`.
+/// No density is best everywhere: meshes and the room prefer 1–2, objects clustered on a huge
+/// floor (balls, tree) 16 and more, which is the case the HUG is built for.
+pub const DEFAULT_DENSITY: f32 = 2.0;
 
 /// Upper bound on cells in one grid: offsets for 2^28 cells take 1 GiB.
 const MAX_CELLS: f64 = (1u64 << 28) as f64;
@@ -188,7 +192,7 @@ impl Accel for Grid {
     const KEYS: &'static [(&'static str, &'static str)] = &[
         (
             "density",
-            "cells per primitive, 0.001..1000 (default 4; RTNews used 1 and 20)",
+            "cells per primitive, 0.001..1000 (default 2; RTNews used 1 and 20)",
         ),
         (
             "prune",
