@@ -1,0 +1,184 @@
+//! The `hugrt` command end to end: outputs, formats, exit codes and error messages.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn hugrt(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_hugrt"))
+        .args(args)
+        .output()
+        .expect("hugrt runs")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn fixture() -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../hugrt/tests/fixtures/features.nff")
+        .display()
+        .to_string()
+}
+
+#[test]
+fn render_writes_png_and_stats_json() {
+    let dir = tempfile::tempdir().unwrap();
+    let png = dir.path().join("f.png");
+    let json = dir.path().join("f.json");
+    let o = hugrt(&[
+        "render",
+        &fixture(),
+        "-o",
+        png.to_str().unwrap(),
+        "--stats-json",
+        json.to_str().unwrap(),
+        "--quiet",
+        "--width",
+        "40",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let img = image::open(&png).unwrap();
+    assert_eq!(
+        (img.width(), img.height()),
+        (40, 32),
+        "height from the file, width overridden"
+    );
+    let j: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    for key in [
+        "eye_rays",
+        "eye_hits",
+        "shadow_rays",
+        "shadow_hits",
+        "reflected_rays",
+        "refracted_rays",
+        "secondary_hits",
+    ] {
+        assert!(j[key].is_u64(), "{key} missing or not an integer in {j}");
+    }
+    assert_eq!(j["eye_rays"], 41 * 33);
+    assert!(j["build_seconds"].is_f64() && j["render_seconds"].is_f64());
+}
+
+fn write_rays(path: &Path, rays: &[[f32; 8]]) {
+    let bytes: Vec<u8> = rays
+        .iter()
+        .flatten()
+        .flat_map(|x| x.to_le_bytes())
+        .collect();
+    std::fs::write(path, bytes).unwrap();
+}
+
+fn read_hits(path: &Path) -> Vec<(f32, u32)> {
+    std::fs::read(path)
+        .unwrap()
+        .chunks_exact(8)
+        .map(|c| {
+            (
+                f32::from_le_bytes(c[..4].try_into().unwrap()),
+                u32::from_le_bytes(c[4..].try_into().unwrap()),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn trace_writes_the_embree_peer_hits_format() {
+    let fx = fixture();
+    let dir = tempfile::tempdir().unwrap();
+    let rays = dir.path().join("r.rays");
+    let inf = f32::INFINITY;
+    write_rays(
+        &rays,
+        &[
+            [0.0, -8.0, 3.0, 0.0, 0.0, 1.0, -0.3, inf], // into the scene
+            [0.0, -8.0, 3.0, 0.0, 0.0, -1.0, 0.0, inf], // away from it
+            [-1.5, 0.0, 5.0, 0.0, 0.0, 0.0, -1.0, inf], // straight down onto the red sphere
+            [-1.5, 0.0, 5.0, 0.0, 0.0, 0.0, -1.0, 1.0], // stops short of it
+        ],
+    );
+    let mut results = Vec::new();
+    for (accel, any) in [("grid", false), ("brute", false), ("grid", true)] {
+        let hits = dir.path().join(format!("{accel}{any}.hits"));
+        let mut args = vec![
+            "trace",
+            &fx,
+            "--rays",
+            rays.to_str().unwrap(),
+            "--hits",
+            hits.to_str().unwrap(),
+            "--accel",
+            accel,
+        ];
+        if any {
+            args.push("--any-hit");
+        }
+        let o = hugrt(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert!(stderr(&o).contains("Mrays/s"), "{}", stderr(&o));
+        results.push(read_hits(&hits));
+    }
+    let closest = &results[0];
+    assert_eq!(closest, &results[1], "grid and brute");
+    assert!(closest[0].0.is_finite());
+    assert_eq!(closest[1], (inf, u32::MAX));
+    // The sphere of radius 0.8 centred at z = 1 is met at z = 1.8, t = 3.2.
+    assert!((closest[2].0 - 3.2).abs() < 1e-5, "{:?}", closest[2]);
+    assert_eq!(closest[3], (inf, u32::MAX));
+    let any = &results[2];
+    assert_eq!(any[2], (1.0, 0));
+    assert_eq!(any[1], (inf, u32::MAX));
+}
+
+#[test]
+fn errors_exit_nonzero_with_a_reason() {
+    let fx = fixture();
+    let fx = fx.as_str();
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("bad.nff");
+    std::fs::write(&bad, "s 0 0 0 1\ns 0 0 nan 1\n").unwrap();
+    let bad = bad.to_str().unwrap();
+    let short = dir.path().join("short.rays");
+    std::fs::write(&short, [0u8; 33]).unwrap();
+    let hits = dir.path().join("h.hits");
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (vec!["stats", bad], "bad.nff:2: sphere: coordinate is NaN"),
+        (vec!["render", bad, "--quiet"], "bad.nff:2:"),
+        (vec!["stats", "/nonexistent.ply"], "/nonexistent.ply"),
+        (vec!["stats", fx, "--accel", "octree"], "brute, grid"),
+        (vec!["stats", fx, "--accel", "grid:dens=3"], "density"),
+        (vec!["stats", fx, "--accel", "grid:density=-1"], "density"),
+        (
+            vec![
+                "trace",
+                &fx,
+                "--rays",
+                short.to_str().unwrap(),
+                "--hits",
+                hits.to_str().unwrap(),
+            ],
+            "33",
+        ),
+        (vec!["render", "builtin:room:0", "--quiet"], "builtin:room"),
+        (vec!["render", fx, "--width", "0", "--quiet"], "image size"),
+    ];
+    for (args, want) in cases {
+        let o = hugrt(&args);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {}", stderr(&o));
+        let e = stderr(&o);
+        assert!(
+            e.starts_with("hugrt: error: ") && e.contains(want),
+            "{args:?}: {e}"
+        );
+        assert!(!e.contains("panicked"), "{args:?}: {e}");
+    }
+}
+
+#[test]
+fn stats_json_reports_scene_and_structure() {
+    let o = hugrt(&["stats", &fixture(), "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(j["scene_stats"]["objects"], 13);
+    assert!(j["structure"]["bytes_per_primitive"].as_f64().unwrap() > 0.0);
+}
