@@ -185,6 +185,110 @@ impl Grid {
         self.refs = refs;
         self.occupied = occupied;
     }
+
+    /// Walks the grid along `pr` over `[tmin, tmax]`, improving `best`. The parts a hierarchy
+    /// needs are explicit: `level` for the counters, and a `mailbox` and running `best` owned
+    /// by the caller, so that a structure of nested grids (HUG, recursive grid) walks a
+    /// sub-grid with the same ray state as its parent. Returns `true` when `ANY_HIT` found a
+    /// hit and the whole query may stop.
+    #[allow(clippy::too_many_arguments)]
+    pub fn walk<P: Primitives, C: Counters, const ANY_HIT: bool>(
+        &self,
+        prims: &P,
+        pr: &PreparedRay,
+        tmin: f32,
+        tmax: f32,
+        level: usize,
+        mailbox: &mut Mailbox,
+        best: &mut Option<Hit>,
+        counters: &mut C,
+    ) -> bool {
+        let ray = &pr.ray;
+        let d = ray.dir;
+        counters.box_test(level);
+        let Some((t0, t1)) = self.bounds.intersect(pr, tmin, best.map_or(tmax, |b| b.t)) else {
+            return false;
+        };
+        if self.refs.is_empty() {
+            return false;
+        }
+        let o = ray.origin;
+        let inv = pr.inv_dir;
+        let p = o + d * t0;
+        let mut cell = [0i32; 3];
+        let mut step = [0i32; 3];
+        let mut out = [0i32; 3];
+        // Distance to the plane `k` of axis `a`, recomputed at every step rather than
+        // accumulated, so rounding does not grow with the length of the walk.
+        // Plain arrays: indexing a `Vec3` by a run-time axis is a branch per access.
+        let (lo, size) = (self.bounds.min.to_array(), self.cell_size.to_array());
+        let (oa, inva) = (o.to_array(), inv.to_array());
+        let plane_t = |a: usize, k: i32| ((lo[a] + k as f32 * size[a]) - oa[a]) * inva[a];
+        // `ahead[a]` is 1 when the next plane on axis `a` is the cell's upper one.
+        let mut ahead = [0i32; 3];
+        let mut t_next = [f32::INFINITY; 3];
+        for a in 0..3 {
+            cell[a] = self.cell_coord(a, p[a]) as i32;
+            if d[a] > 0.0 {
+                (step[a], out[a], ahead[a]) = (1, self.res[a] as i32, 1);
+            } else if d[a] < 0.0 {
+                (step[a], out[a], ahead[a]) = (-1, -1, 0);
+            } else {
+                out[a] = i32::MIN;
+                continue;
+            }
+            t_next[a] = plane_t(a, cell[a] + ahead[a]);
+        }
+        // Rounding bound on the plane distances and hit parameters, in units of t.
+        let tol = 2f32.powi(-19) * (o.abs().max_element() + self.magnitude) / d.length();
+        let res_x = self.res[0] as usize;
+        let res_xy = res_x * self.res[1] as usize;
+        loop {
+            counters.cell_visit(level);
+            let idx = cell[2] as usize * res_xy + cell[1] as usize * res_x + cell[0] as usize;
+            let (s, e) = if self.occupied[idx / 64] & (1 << (idx % 64)) != 0 {
+                (
+                    self.cell_start[idx] as usize,
+                    self.cell_start[idx + 1] as usize,
+                )
+            } else {
+                (0, 0)
+            };
+            for &prim in &self.refs[s..e] {
+                if !mailbox.first_visit(prim) {
+                    continue;
+                }
+                counters.prim_test(level);
+                let t_far = best.map_or(tmax, |b| b.t);
+                if let Some(t) = prims.intersect(prim as usize, pr, tmin, t_far) {
+                    counters.prim_hit(level);
+                    if Hit::improves(best, t, prim) {
+                        *best = Some(Hit { t, prim });
+                        if ANY_HIT {
+                            return true;
+                        }
+                    }
+                }
+            }
+            let t_exit = t_next[0].min(t_next[1]).min(t_next[2]);
+            if best.is_some_and(|b| b.t + tol <= t_exit) || t_exit > t1 {
+                break;
+            }
+            let a = if t_next[0] < t_next[1] {
+                if t_next[0] < t_next[2] { 0 } else { 2 }
+            } else if t_next[1] < t_next[2] {
+                1
+            } else {
+                2
+            };
+            cell[a] += step[a];
+            if cell[a] == out[a] {
+                break;
+            }
+            t_next[a] = plane_t(a, cell[a] + ahead[a]);
+        }
+        false
+    }
 }
 
 impl Accel for Grid {
@@ -268,93 +372,21 @@ impl Accel for Grid {
         ray: &Ray,
         counters: &mut C,
     ) -> Option<Hit> {
-        let d = ray.dir;
         if !ray.is_traceable() {
             return None;
         }
         let pr = PreparedRay::new(ray);
-        counters.box_test(0);
-        let (t0, t1) = self.bounds.intersect(&pr, ray.tmin, ray.tmax)?;
-        if self.refs.is_empty() {
-            return None;
-        }
-        let o = ray.origin;
-        let inv = pr.inv_dir;
-        let p = o + d * t0;
-        let mut cell = [0i32; 3];
-        let mut step = [0i32; 3];
-        let mut out = [0i32; 3];
-        // Distance to the plane `k` of axis `a`, recomputed at every step rather than
-        // accumulated, so rounding does not grow with the length of the walk.
-        // Plain arrays: indexing a `Vec3` by a run-time axis is a branch per access.
-        let (lo, size) = (self.bounds.min.to_array(), self.cell_size.to_array());
-        let (oa, inva) = (o.to_array(), inv.to_array());
-        let plane_t = |a: usize, k: i32| ((lo[a] + k as f32 * size[a]) - oa[a]) * inva[a];
-        // `ahead[a]` is 1 when the next plane on axis `a` is the cell's upper one.
-        let mut ahead = [0i32; 3];
-        let mut t_next = [f32::INFINITY; 3];
-        for a in 0..3 {
-            cell[a] = self.cell_coord(a, p[a]) as i32;
-            if d[a] > 0.0 {
-                (step[a], out[a], ahead[a]) = (1, self.res[a] as i32, 1);
-            } else if d[a] < 0.0 {
-                (step[a], out[a], ahead[a]) = (-1, -1, 0);
-            } else {
-                out[a] = i32::MIN;
-                continue;
-            }
-            t_next[a] = plane_t(a, cell[a] + ahead[a]);
-        }
-        // Rounding bound on the plane distances and hit parameters, in units of t.
-        let tol = 2f32.powi(-19) * (o.abs().max_element() + self.magnitude) / d.length();
-        let res_x = self.res[0] as usize;
-        let res_xy = res_x * self.res[1] as usize;
-        let mut mailbox = Mailbox::default();
-        let mut best: Option<Hit> = None;
-        loop {
-            counters.cell_visit(0);
-            let idx = cell[2] as usize * res_xy + cell[1] as usize * res_x + cell[0] as usize;
-            let (s, e) = if self.occupied[idx / 64] & (1 << (idx % 64)) != 0 {
-                (
-                    self.cell_start[idx] as usize,
-                    self.cell_start[idx + 1] as usize,
-                )
-            } else {
-                (0, 0)
-            };
-            for &prim in &self.refs[s..e] {
-                if !mailbox.first_visit(prim) {
-                    continue;
-                }
-                counters.prim_test(0);
-                let tmax = best.map_or(ray.tmax, |b| b.t);
-                if let Some(t) = prims.intersect(prim as usize, &pr, ray.tmin, tmax) {
-                    counters.prim_hit(0);
-                    if Hit::improves(&best, t, prim) {
-                        best = Some(Hit { t, prim });
-                        if ANY_HIT {
-                            return best;
-                        }
-                    }
-                }
-            }
-            let t_exit = t_next[0].min(t_next[1]).min(t_next[2]);
-            if best.is_some_and(|b| b.t + tol <= t_exit) || t_exit > t1 {
-                break;
-            }
-            let a = if t_next[0] < t_next[1] {
-                if t_next[0] < t_next[2] { 0 } else { 2 }
-            } else if t_next[1] < t_next[2] {
-                1
-            } else {
-                2
-            };
-            cell[a] += step[a];
-            if cell[a] == out[a] {
-                break;
-            }
-            t_next[a] = plane_t(a, cell[a] + ahead[a]);
-        }
+        let mut best = None;
+        self.walk::<P, C, ANY_HIT>(
+            prims,
+            &pr,
+            ray.tmin,
+            ray.tmax,
+            0,
+            &mut Mailbox::default(),
+            &mut best,
+            counters,
+        );
         best
     }
 
