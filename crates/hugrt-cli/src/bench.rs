@@ -11,7 +11,8 @@ use hugrt::scene::Scene;
 use std::path::Path;
 use std::time::Instant;
 
-fn median(mut v: Vec<f64>) -> f64 {
+/// Median of timings (the upper one of an even count).
+pub(crate) fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     v[v.len() / 2]
 }

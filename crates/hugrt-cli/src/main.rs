@@ -271,8 +271,7 @@ fn run(cli: Cli) -> Result<()> {
                 result = hugrt::batch::trace(&scene, &acc, &ray_list, any_hit);
                 times.push(t.elapsed().as_secs_f64());
             }
-            times.sort_by(f64::total_cmp);
-            let trace_s = times[times.len() / 2];
+            let trace_s = bench::median(times);
             std::fs::write(&hits, hugrt::batch::encode_hits(&result))
                 .with_context(|| format!("writing {}", hits.display()))?;
             let hit_count = result.iter().filter(|h| h.is_some()).count();

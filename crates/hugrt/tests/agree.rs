@@ -66,6 +66,7 @@ fn degenerate_rays_give_no_hit_and_no_hang() {
             Ray::new(Vec3::ZERO, Vec3::X, 1.0, 0.0),
         ] {
             assert_eq!(a.closest_hit(&s, &r, &mut NoCounters), None, "{spec} {r:?}");
+            assert_eq!(a.any_hit(&s, &r, &mut NoCounters), None, "{spec} {r:?}");
         }
     }
 }

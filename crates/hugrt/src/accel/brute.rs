@@ -22,9 +22,6 @@ impl Accel for Brute {
         ray: &Ray,
         counters: &mut C,
     ) -> Option<Hit> {
-        if !ray.is_traceable() {
-            return None;
-        }
         let pr = PreparedRay::new(ray);
         let mut best: Option<Hit> = None;
         for i in 0..self.len {

@@ -190,7 +190,8 @@ impl Grid {
     /// needs are explicit: `level` for the counters, and a `mailbox` and running `best` owned
     /// by the caller, so that a structure of nested grids (HUG, recursive grid) walks a
     /// sub-grid with the same ray state as its parent. Returns `true` when `ANY_HIT` found a
-    /// hit and the whole query may stop.
+    /// hit and the whole query may stop. The ray must be traceable ([`Ray::is_traceable`]):
+    /// a NaN origin would step along an axis that never moves.
     #[allow(clippy::too_many_arguments)]
     pub fn walk<P: Primitives, C: Counters, const ANY_HIT: bool>(
         &self,
@@ -372,9 +373,6 @@ impl Accel for Grid {
         ray: &Ray,
         counters: &mut C,
     ) -> Option<Hit> {
-        if !ray.is_traceable() {
-            return None;
-        }
         let pr = PreparedRay::new(ray);
         let mut best = None;
         self.walk::<P, C, ANY_HIT>(

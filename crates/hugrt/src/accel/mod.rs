@@ -82,12 +82,44 @@ pub trait Accel: Sized + Send + Sync {
 
     fn build<P: Primitives>(prims: &P, spec: &Spec) -> Result<Self, SpecError>;
 
+    /// The query itself, for a ray that [`Ray::is_traceable`]; callers go through
+    /// [`Accel::closest_hit`] and [`Accel::any_hit`], which check that once for every
+    /// structure.
     fn query<P: Primitives, C: Counters, const ANY_HIT: bool>(
         &self,
         prims: &P,
         ray: &Ray,
         counters: &mut C,
     ) -> Option<Hit>;
+
+    /// The nearest hit in the ray's `[tmin, tmax]`; none for a ray that is not traceable.
+    #[inline]
+    fn closest_hit<P: Primitives, C: Counters>(
+        &self,
+        prims: &P,
+        ray: &Ray,
+        counters: &mut C,
+    ) -> Option<Hit> {
+        if !ray.is_traceable() {
+            return None;
+        }
+        self.query::<P, C, false>(prims, ray, counters)
+    }
+
+    /// Some hit in the ray's `[tmin, tmax]`, if there is any; none for a ray that is not
+    /// traceable.
+    #[inline]
+    fn any_hit<P: Primitives, C: Counters>(
+        &self,
+        prims: &P,
+        ray: &Ray,
+        counters: &mut C,
+    ) -> Option<Hit> {
+        if !ray.is_traceable() {
+            return None;
+        }
+        self.query::<P, C, true>(prims, ray, counters)
+    }
 
     /// Bytes held by the structure itself (not the primitives).
     fn memory_bytes(&self) -> usize;
@@ -134,10 +166,7 @@ macro_rules! structures {
             pub fn closest_hit<P: Primitives, C: Counters>(
                 &self, prims: &P, ray: &Ray, counters: &mut C,
             ) -> Option<Hit> {
-                if !ray.is_traceable() {
-                    return None;
-                }
-                match self { $(AnyAccel::$variant(a) => a.query::<P, C, false>(prims, ray, counters),)* }
+                match self { $(AnyAccel::$variant(a) => a.closest_hit(prims, ray, counters),)* }
             }
 
             /// Whether anything is hit in the ray's `[tmin, tmax]`.
@@ -145,10 +174,7 @@ macro_rules! structures {
             pub fn any_hit<P: Primitives, C: Counters>(
                 &self, prims: &P, ray: &Ray, counters: &mut C,
             ) -> Option<Hit> {
-                if !ray.is_traceable() {
-                    return None;
-                }
-                match self { $(AnyAccel::$variant(a) => a.query::<P, C, true>(prims, ray, counters),)* }
+                match self { $(AnyAccel::$variant(a) => a.any_hit(prims, ray, counters),)* }
             }
 
             pub fn memory_bytes(&self) -> usize {

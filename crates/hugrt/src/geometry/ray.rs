@@ -43,16 +43,13 @@ impl Ray {
 pub struct PreparedRay {
     pub ray: Ray,
     pub inv_dir: Vec3,
-    /// Axis permutation: `kz` is the axis where `|dir|` is largest; `kx`, `ky` follow it
-    /// cyclically, swapped when `dir[kz] < 0` so that the winding of triangles is kept.
-    pub k: [usize; 3],
-    /// Shear constants `(Sx, Sy, Sz)`.
-    pub shear: Vec3,
-    /// The permutation and shear as the rows of one matrix: `rows[0] = e_kx − Sx·e_kz`,
-    /// `rows[1] = e_ky − Sy·e_kz`, `rows[2] = Sz·e_kz`. `rows[i].dot(p)` gives the same bits
-    /// as the paper's `p[kx] − Sx·p[kz]` (the other products are by exact 1s and 0s and the
-    /// one rounded product and one rounded sum are the same), without indexing by a run-time
-    /// axis, which costs a branch per component.
+    /// The axis permutation and shear as the rows of one matrix. `kz` is the axis where
+    /// `|dir|` is largest, `kx` and `ky` follow it cyclically (swapped when `dir[kz] < 0`, to
+    /// keep the winding), and `(Sx, Sy, Sz) = (dir[kx]/dir[kz], dir[ky]/dir[kz], 1/dir[kz])`:
+    /// `rows[0] = e_kx − Sx·e_kz`, `rows[1] = e_ky − Sy·e_kz`, `rows[2] = Sz·e_kz`.
+    /// `rows[i].dot(p)` gives the same bits as the paper's `p[kx] − Sx·p[kz]` (the other
+    /// products are by exact 1s and 0s, and the one rounded product and one rounded sum are
+    /// the same), without indexing by a run-time axis, which costs a branch per component.
     pub rows: [Vec3; 3],
 }
 
@@ -78,8 +75,6 @@ impl PreparedRay {
         PreparedRay {
             ray: *ray,
             inv_dir: Vec3::ONE / d,
-            k: [kx, ky, kz],
-            shear,
             rows: [
                 e(kx) - shear.x * e(kz),
                 e(ky) - shear.y * e(kz),
