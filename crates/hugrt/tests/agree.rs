@@ -8,9 +8,7 @@ use proptest::prelude::*;
 
 fn check_all(scene: &hugrt::scene::Scene, ray_seed: u64, n_rays: usize) {
     let rays = rays_for(&scene.bounds(), ray_seed, n_rays);
-    for spec in specs() {
-        assert_agrees(scene, &spec, &rays);
-    }
+    assert_all_agree(scene, &specs(), &rays);
 }
 
 proptest! {
@@ -29,6 +27,11 @@ proptest! {
     #[test]
     fn axis_aligned_and_coplanar(seed in any::<u64>(), n in 1usize..300) {
         check_all(&axis_aligned(seed, n), seed ^ 3, 600);
+    }
+
+    #[test]
+    fn turned_clusters_of_thin_slabs(seed in any::<u64>(), n in 1usize..500) {
+        check_all(&turned_clusters(seed, n), seed ^ 5, 400);
     }
 
     #[test]
@@ -107,4 +110,54 @@ fn all_objects_in_one_cell_and_huge_overlaps_stay_bounded() {
     }
     let s = scene_of(shapes);
     check_all(&s, 11, 300);
+}
+
+/// The variants the property tests run build the structures they are meant to test: nested
+/// grids several levels deep, turned grids, Fig. 9's extra references. (A variant that
+/// silently built a single grid would make its agreement with brute force prove nothing.)
+#[test]
+fn hug_variants_build_what_they_name() {
+    use hugrt::accel::AnyAccel;
+    let stat = |scene: &hugrt::scene::Scene, spec: &str, key: &str| -> f64 {
+        let a = AnyAccel::build(scene, spec).unwrap();
+        let st = a.stats();
+        st.entries
+            .iter()
+            .find(|(k, _)| k == key)
+            .unwrap_or_else(|| panic!("{spec}: no {key}"))
+            .1
+    };
+    let room = hugrt::scene::procedural::clustered_room(20_000, 2);
+    assert!(stat(&room, "hug:min_cluster=1,loose=1e30", "depth") >= 3.0);
+    assert!(stat(&room, "hug:min_cluster=1,loose=1e30", "grids") >= 100.0);
+    let slabs = turned_clusters(3, 2000);
+    assert!(
+        stat(
+            &slabs,
+            "hug:min_cluster=1,loose=1e30,filter=two,fraction=0.3,pca=true",
+            "turned_grids"
+        ) >= 10.0
+    );
+    assert_eq!(
+        stat(
+            &slabs,
+            "hug:min_cluster=1,loose=1e30,filter=two,fraction=0.3",
+            "turned_grids"
+        ),
+        0.0
+    );
+    let fig9 = stat(
+        &room,
+        "hug:min_cluster=1,loose=1e30,cluster=graph,insert=fig9",
+        "references",
+    );
+    let contained = stat(
+        &room,
+        "hug:min_cluster=1,loose=1e30,cluster=graph",
+        "references",
+    );
+    assert!(
+        fig9 > contained,
+        "Fig. 9 insertion adds references ({fig9} vs {contained})"
+    );
 }

@@ -36,9 +36,7 @@ fn spd_gears_and_bunny_agree_with_brute_force() {
         let s = Scene::load(&path).unwrap();
         let mut rays_ = common::rays_for(&s.bounds(), 21, rays);
         rays_.extend(hugrt::batch::camera_rays(&s.bounds(), 24, 24));
-        for spec in common::specs() {
-            common::assert_agrees(&s, &spec, &rays_);
-        }
+        common::assert_all_agree(&s, &common::specs(), &rays_);
     }
 }
 

@@ -13,16 +13,33 @@
 mod brute;
 mod counters;
 mod grid;
+mod hierarchy;
+pub mod hug;
 mod mailbox;
 mod spec;
+mod store;
 
 pub use brute::Brute;
 pub use counters::{Counters, LevelCounts, MAX_LEVELS, NoCounters, RayCounters};
-pub use grid::{Grid, cubical_resolution};
+pub use grid::Grid;
+pub use hierarchy::{GridLevelStats, cubical_resolution};
+pub use hug::Hug;
 pub use mailbox::Mailbox;
 pub use spec::{Spec, SpecError};
+pub use store::{Nearest, PrimStore};
 
-use crate::geometry::{Aabb, PreparedRay, Ray};
+use crate::geometry::{Aabb, Cone, PreparedRay, Ray, Sphere, Vec3};
+
+/// What a primitive is, for structures that keep their own compact copy of it
+/// ([`PrimStore`]). `Opaque` primitives are kept by index and intersected through
+/// [`Primitives::intersect`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PrimitiveKind {
+    Triangle([Vec3; 3]),
+    Sphere(Sphere),
+    Cone(Cone),
+    Opaque,
+}
 
 /// A set of primitives as a structure sees it.
 pub trait Primitives: Sync {
@@ -36,6 +53,13 @@ pub trait Primitives: Sync {
     /// Exact overlap of primitive `i` with a box; `true` when unsure (conservative).
     fn overlaps_box(&self, _i: usize, _b: &Aabb) -> bool {
         true
+    }
+    /// The primitive as geometry the store can hold. The contract: [`Primitives::intersect`]
+    /// of `i` is the geometry module's test of that geometry (`intersect_triangle`,
+    /// `Sphere::intersect`, `Cone::intersect`), so that a structure testing its own copy finds
+    /// bit for bit the same hits. The default keeps every primitive opaque.
+    fn kind(&self, _i: usize) -> PrimitiveKind {
+        PrimitiveKind::Opaque
     }
 }
 
@@ -60,10 +84,12 @@ impl Hit {
 }
 
 /// Statistics a structure reports about itself (`hugrt stats`): named numbers, in the order
-/// the structure finds meaningful.
+/// the structure finds meaningful, and for grid hierarchies the statistics of each level
+/// (SCG97 §3).
 #[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct StructureStats {
     pub entries: Vec<(String, f64)>,
+    pub levels: Vec<GridLevelStats>,
 }
 
 impl StructureStats {
@@ -121,7 +147,8 @@ pub trait Accel: Sized + Send + Sync {
         self.query::<P, C, true>(prims, ray, counters)
     }
 
-    /// Bytes held by the structure itself (not the primitives).
+    /// Bytes held by the structure: its nodes or cells and its own copy of the primitives
+    /// ([`PrimStore`]), not the scene's.
     fn memory_bytes(&self) -> usize;
 
     fn stats(&self) -> StructureStats;
@@ -191,4 +218,5 @@ macro_rules! structures {
 structures! {
     Brute => Brute,
     Grid => Grid,
+    Hug => Hug,
 }

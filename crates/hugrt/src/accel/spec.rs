@@ -106,6 +106,52 @@ impl Spec {
         Ok(x)
     }
 
+    /// A whole number in `[lo, hi]`, or `default` when the key is absent.
+    pub fn usize_in(
+        &self,
+        key: &str,
+        default: usize,
+        lo: usize,
+        hi: usize,
+    ) -> Result<usize, SpecError> {
+        let Some(v) = self.raw(key) else {
+            return Ok(default);
+        };
+        let bad = |reason: String| SpecError::BadValue {
+            key: key.to_string(),
+            value: v.to_string(),
+            reason,
+        };
+        let x: usize = v.parse().map_err(|_| bad("not a whole number".into()))?;
+        if !(lo..=hi).contains(&x) {
+            return Err(bad(format!("must be between {lo} and {hi}")));
+        }
+        Ok(x)
+    }
+
+    /// One of `choices`, or `default` when the key is absent.
+    pub fn choice<'a>(
+        &'a self,
+        key: &str,
+        choices: &[&str],
+        default: &'a str,
+    ) -> Result<&'a str, SpecError> {
+        match self.raw(key) {
+            None => Ok(default),
+            Some(v) if choices.contains(&v) => Ok(v),
+            Some(v) => Err(SpecError::BadValue {
+                key: key.to_string(),
+                value: v.to_string(),
+                reason: format!("expected one of {}", choices.join(", ")),
+            }),
+        }
+    }
+
+    /// The raw value of a key, if given.
+    pub fn value(&self, key: &str) -> Option<&str> {
+        self.raw(key)
+    }
+
     pub fn bool(&self, key: &str, default: bool) -> Result<bool, SpecError> {
         match self.raw(key) {
             None => Ok(default),

@@ -9,7 +9,7 @@ pub mod procedural;
 
 pub use error::SceneError;
 
-use crate::accel::Primitives;
+use crate::accel::{PrimitiveKind, Primitives};
 use crate::geometry::{Aabb, PreparedRay, Shape, Vec3};
 use std::io::Read;
 use std::path::Path;
@@ -194,6 +194,13 @@ impl Primitives for Scene {
     }
     fn overlaps_box(&self, i: usize, b: &Aabb) -> bool {
         self.shapes[i].overlaps_box(b)
+    }
+    fn kind(&self, i: usize) -> PrimitiveKind {
+        match self.shapes[i] {
+            Shape::Triangle(v) | Shape::Patch { v, .. } => PrimitiveKind::Triangle(v),
+            Shape::Sphere(s) => PrimitiveKind::Sphere(s),
+            Shape::Cone(c) => PrimitiveKind::Cone(c),
+        }
     }
 }
 

@@ -23,6 +23,14 @@ pub fn specs() -> Vec<String> {
             "grid:density=0.01",
             "grid:prune=true",
             "grid:density=3,prune=true",
+            // Every cluster kept as a grid, however small or loose: deep hierarchies.
+            "hug:min_cluster=1,loose=1e30",
+            "hug:min_cluster=1,loose=1e30,cluster=graph,insert=fig9",
+            "hug:min_cluster=2,loose=1e30,levels=6,world=sqrt2,density=4",
+            "hug:min_cluster=1,loose=1e30,filter=two,fraction=0.3,pca=true",
+            "hug:min_cluster=1,loose=1e30,levels=4,hetero=true,prune=true",
+            "hug:min_cluster=3,loose=0.5,pca=true,hetero=true,alpha=0.5",
+            "hug:filter=two,cluster=graph,world=sqrt2",
         ]
         .map(String::from),
     );
@@ -89,6 +97,37 @@ pub fn clustered_soup(seed: u64, n: usize) -> Scene {
         Vec3::new(-1000., 1000., -1000.),
         Vec3::new(1000., 1000., 500.),
         Vec3::new(0., -1000., 1000.),
+    ]));
+    scene_of(shapes)
+}
+
+/// Clusters of small triangles each spread over a thin slab turned at random (what SCG97
+/// §7.2's oriented boxes fit better than axis-aligned ones), over one large ground triangle.
+pub fn turned_clusters(seed: u64, n: usize) -> Scene {
+    let mut r = rng(seed);
+    let clusters = 1 + n / 60;
+    let frames: Vec<(Vec3, [Vec3; 3])> = (0..clusters)
+        .map(|_| {
+            let c = v3(&mut r, -20.0, 20.0);
+            let a = v3(&mut r, -1.0, 1.0).normalize_or(Vec3::X);
+            let b = a.any_orthonormal_vector();
+            (c, [a, b, a.cross(b)])
+        })
+        .collect();
+    let mut shapes: Vec<Shape> = (0..n)
+        .map(|i| {
+            let (c, [a, b, w]) = frames[i % clusters];
+            let p = c
+                + a * r.random_range(-4.0..4.0)
+                + b * r.random_range(-1.0..1.0)
+                + w * r.random_range(-0.05..0.05);
+            Shape::Triangle([p, p + a * 0.15, p + b * 0.15 + w * 0.02])
+        })
+        .collect();
+    shapes.push(Shape::Triangle([
+        Vec3::new(-40., -25., -40.),
+        Vec3::new(40., -25., -40.),
+        Vec3::new(0., -25., 40.),
     ]));
     scene_of(shapes)
 }
@@ -239,25 +278,35 @@ pub fn rays_for(b: &Aabb, seed: u64, n: usize) -> Vec<Ray> {
 /// primitive at the same `t` (ties go to the lower index in every structure), and any-hit
 /// finds a hit exactly when closest-hit does.
 pub fn assert_agrees<P: Primitives>(prims: &P, spec: &str, rays: &[Ray]) {
+    assert_all_agree(prims, &[spec.to_string()], rays);
+}
+
+/// [`assert_agrees`] for several structures, with brute force's answers computed once.
+pub fn assert_all_agree<P: Primitives>(prims: &P, specs: &[String], rays: &[Ray]) {
     let brute = AnyAccel::build(prims, "brute").unwrap();
-    let accel = AnyAccel::build(prims, spec).unwrap_or_else(|e| panic!("{spec}: {e}"));
-    for (i, ray) in rays.iter().enumerate() {
-        let want: Option<Hit> = brute.closest_hit(prims, ray, &mut NoCounters);
-        let got = accel.closest_hit(prims, ray, &mut NoCounters);
-        let same = match (want, got) {
-            (None, None) => true,
-            (Some(a), Some(b)) => a.prim == b.prim || a.t == b.t,
-            _ => false,
-        };
-        assert!(
-            same,
-            "{spec}: ray {i} {ray:?}: brute {want:?}, {spec} {got:?}"
-        );
-        let any = accel.any_hit(prims, ray, &mut NoCounters);
-        assert_eq!(
-            any.is_some(),
-            want.is_some(),
-            "{spec}: any-hit disagrees on ray {i} {ray:?}"
-        );
+    let want: Vec<Option<Hit>> = rays
+        .iter()
+        .map(|r| brute.closest_hit(prims, r, &mut NoCounters))
+        .collect();
+    for spec in specs {
+        let accel = AnyAccel::build(prims, spec).unwrap_or_else(|e| panic!("{spec}: {e}"));
+        for (i, (ray, want)) in rays.iter().zip(&want).enumerate() {
+            let got = accel.closest_hit(prims, ray, &mut NoCounters);
+            let same = match (want, got) {
+                (None, None) => true,
+                (Some(a), Some(b)) => a.prim == b.prim || a.t == b.t,
+                _ => false,
+            };
+            assert!(
+                same,
+                "{spec}: ray {i} {ray:?}: brute {want:?}, {spec} {got:?}"
+            );
+            let any = accel.any_hit(prims, ray, &mut NoCounters);
+            assert_eq!(
+                any.is_some(),
+                want.is_some(),
+                "{spec}: any-hit disagrees on ray {i} {ray:?}"
+            );
+        }
     }
 }

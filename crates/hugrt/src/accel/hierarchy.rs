@@ -1,0 +1,893 @@
+//! Nested uniform grids: the data and the walk that the uniform grid, the HUG and the other
+//! grid hierarchies share.
+//!
+//! A [`GridHierarchy`] is a list of uniform grids (grid 0 is the root) over one
+//! [`PrimStore`]. A cell references store entries and, like objects, other grids (EG95 §2.3:
+//! "a grid is inserted into the cells of the grid above it, like an object"). Everything is
+//! flat: the cells of every grid lie consecutively in one offsets array, their references in
+//! one array, sorted per cell (objects in store order, then grids), built in two passes
+//! (count, prefix sum, fill: RTNews "Quicker grid generation"), with no allocation per grid
+//! or per cell. A grid may carry its own orthonormal frame (SCG97 §7.2's oriented cluster
+//! boxes): its cells are then laid out in that frame and the ray is turned into it.
+//!
+//! # The walk (EG95 §2.3.2)
+//! The 3D-DDA of Amanatides and Woo. In each cell: the objects are tested, then each grid
+//! referenced there is walked with the same ray state (nearest hit, mailbox), which is what
+//! carries one query through every level; then the walk stops if the nearest hit lies before
+//! the cell's exit. A sub-grid is walked once per ray, over its whole extent, the first time a
+//! cell references it (its own mailbox), so its answer is complete when the walk returns; the
+//! grid above stops only when its own cell's exit lies beyond the hit. So the query stops when
+//! the hit lies before the exit of the current cell at every level being walked.
+//!
+//! # Exactness
+//! Every box (object or grid) is widened by `margin` before it is binned, and every grid's box
+//! by the same margin. The margin bounds three rounding errors at once, each a few ulps of the
+//! coordinate magnitude `M` (largest absolute coordinate or extent of the root box):
+//! * the DDA's plane distances `base + k·delta`: the true ray at a parameter `t` inside the
+//!   interval the walk gives a cell lies within that error of the cell, so it reaches every
+//!   cell the true ray crosses, corners included, up to the margin;
+//! * the stop test `nearest ≤ exit`: a nearer hit just beyond the exit plane lies within the
+//!   same error of the current cell, hence is referenced by it;
+//! * the watertight triangle test's own rounding (its effective ray is off by a few ulps).
+//!
+//! With `margin = M·2^-17` (64 ulps of `M`), hits are those of brute force for ray origins
+//! within a few times `M` of the origin; rays from much farther away should be clipped to the
+//! scene's box by the caller. The property tests (`tests/agree.rs`) fail without the margin.
+
+use super::store::{Nearest, PrimStore, finite};
+use super::{Counters, Mailbox, Primitives, SpecError};
+use crate::geometry::{Aabb, PreparedRay, Vec3};
+use rayon::prelude::*;
+use serde::Serialize;
+use std::sync::atomic::{AtomicU32, Ordering};
+
+/// A reference with this bit set names a grid, not a store entry.
+pub(crate) const GRID_TAG: u32 = 1 << 31;
+
+/// Upper bound on cells in one grid: offsets for 2^28 cells take 1 GiB.
+pub(crate) const MAX_CELLS: f64 = (1u64 << 28) as f64;
+
+/// Reference budget per grid: when bounding-box binning would store more than this many
+/// references per item (big overlapping objects, coplanar stacks), the grid's resolution is
+/// halved per axis until it fits, so memory stays `O(n)` on adversarial scenes.
+pub(crate) const MAX_REFS_PER_ITEM: u64 = 64;
+pub(crate) const MIN_REF_BUDGET: u64 = 1 << 20;
+
+const NO_FRAME: u32 = u32::MAX;
+
+/// `1 + 2·gamma(3)` of Ize ("Robust BVH Ray Traversal", JCGT 2013): scaling the far slab
+/// distance by it makes the slab test conservative under rounding.
+const ROBUST_FAR: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
+
+/// Cells per axis for a box of side lengths `extent` holding about `cells` cells that are as
+/// cubical as possible (Woo, GI'92): side `s = (V / cells)^(1/k)` over the `k` axes of non-zero
+/// extent, then `round(extent_i / s)` cells on axis `i`, at least 1.
+pub fn cubical_resolution(extent: Vec3, cells: f64) -> [u32; 3] {
+    let cells = cells.clamp(1.0, MAX_CELLS);
+    let e = extent.as_dvec3();
+    let emax = e.max_element();
+    if emax.is_nan() || emax <= 0.0 {
+        return [1, 1, 1];
+    }
+    let active: Vec<f64> = e
+        .to_array()
+        .into_iter()
+        .filter(|&x| x > emax * 1e-6)
+        .collect();
+    let measure: f64 = active.iter().product();
+    let side = (measure / cells).powf(1.0 / active.len() as f64);
+    let per_axis = (cells.powf(1.0 / active.len() as f64) * 4.0).min(MAX_CELLS);
+    e.to_array().map(|x| {
+        if x > emax * 1e-6 {
+            (x / side).round().clamp(1.0, per_axis) as u32
+        } else {
+            1
+        }
+    })
+}
+
+/// An orthonormal frame: `local = axes · (p − origin)`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Frame {
+    pub origin: Vec3,
+    pub axes: [Vec3; 3],
+}
+
+impl Frame {
+    #[inline(always)]
+    pub fn dir(&self, d: Vec3) -> Vec3 {
+        Vec3::new(
+            self.axes[0].dot(d),
+            self.axes[1].dot(d),
+            self.axes[2].dot(d),
+        )
+    }
+
+    #[inline(always)]
+    pub fn point(&self, p: Vec3) -> Vec3 {
+        self.dir(p - self.origin)
+    }
+
+    fn world_point(&self, l: Vec3) -> Vec3 {
+        self.origin + self.axes[0] * l.x + self.axes[1] * l.y + self.axes[2] * l.z
+    }
+
+    fn corners(b: &Aabb) -> [Vec3; 8] {
+        std::array::from_fn(|k| {
+            Vec3::new(
+                if k & 1 == 0 { b.min.x } else { b.max.x },
+                if k & 2 == 0 { b.min.y } else { b.max.y },
+                if k & 4 == 0 { b.min.z } else { b.max.z },
+            )
+        })
+    }
+
+    /// Box in this frame around a world-space box.
+    pub fn local_box(&self, b: &Aabb) -> Aabb {
+        if b.is_empty() {
+            return *b;
+        }
+        Frame::corners(b)
+            .iter()
+            .fold(Aabb::EMPTY, |a, &c| a.grow(self.point(c)))
+    }
+
+    /// World-space box around a box of this frame.
+    pub fn world_box(&self, b: &Aabb) -> Aabb {
+        if b.is_empty() {
+            return *b;
+        }
+        Frame::corners(b)
+            .iter()
+            .fold(Aabb::EMPTY, |a, &c| a.grow(self.world_point(c)))
+    }
+}
+
+/// How many cells a planned grid gets.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum Resolution {
+    /// About this many cells, as cubical as possible.
+    Cubical(f64),
+    /// Exactly these cells per axis.
+    Fixed([u32; 3]),
+}
+
+/// One grid to build: what it holds and how finely it is cut.
+pub(crate) struct GridPlan {
+    /// Store entries binned in the grid, in ascending order.
+    pub objects: Vec<u32>,
+    /// Grids referenced from its cells (indices in the plan list, each after this one).
+    pub children: Vec<u32>,
+    pub resolution: Resolution,
+    pub frame: Option<Frame>,
+    /// Level in the hierarchy (0 = the root), for statistics and counters.
+    pub depth: u32,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct GridHeader {
+    /// The grid's box, in its own frame.
+    min: Vec3,
+    max: Vec3,
+    size: Vec3,
+    inv_size: Vec3,
+    res: [u32; 3],
+    /// Index of cell (0, 0, 0) in `cell_start` and `occupied`.
+    first_cell: u32,
+    frame: u32,
+    depth: u32,
+    objects: u32,
+}
+
+impl GridHeader {
+    fn cells(&self) -> usize {
+        self.res.iter().map(|&r| r as usize).product()
+    }
+
+    #[inline(always)]
+    fn coord(&self, a: usize, x: f32) -> u32 {
+        // Truncation is the floor for the non-negative values that survive the clamp (and NaN
+        // becomes 0); `floor` itself is a library call without SSE4.1.
+        let c = (x - self.min[a]) * self.inv_size[a];
+        (c.max(0.0) as u32).min(self.res[a] - 1)
+    }
+
+    fn cell_range(&self, b: &Aabb) -> ([u32; 3], [u32; 3]) {
+        (
+            [0, 1, 2].map(|a| self.coord(a, b.min[a])),
+            [0, 1, 2].map(|a| self.coord(a, b.max[a])),
+        )
+    }
+
+    fn cell_box(&self, c: [u32; 3]) -> Aabb {
+        let lo = self.min + Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32) * self.size;
+        Aabb::new(lo, lo + self.size)
+    }
+
+    fn set_resolution(&mut self, res: [u32; 3]) {
+        self.res = res;
+        let r = Vec3::new(res[0] as f32, res[1] as f32, res[2] as f32);
+        let e = self.max - self.min;
+        self.size = e / r;
+        self.inv_size = r / e;
+    }
+
+    fn world_box(&self, frames: &[Frame]) -> Aabb {
+        let b = Aabb::new(self.min, self.max);
+        if self.frame == NO_FRAME {
+            b
+        } else {
+            frames[self.frame as usize].world_box(&b)
+        }
+    }
+}
+
+/// Nested uniform grids over a primitive store; see the module documentation.
+pub(crate) struct GridHierarchy {
+    pub store: PrimStore,
+    grids: Vec<GridHeader>,
+    frames: Vec<Frame>,
+    /// `cell_start[c]..cell_start[c + 1]` are cell `c`'s references in `refs`.
+    cell_start: Vec<u32>,
+    refs: Vec<u32>,
+    /// One bit per cell, set when the cell holds references. Most cells of most scenes are
+    /// empty; the walk reads this 1/32-size array, which stays in cache, and touches
+    /// `cell_start` only for occupied cells.
+    occupied: Vec<u64>,
+}
+
+/// What one grid bins: its objects (store entries) then its children (tagged grid indices),
+/// each with its box in the grid's frame widened by the margin. Objects without a finite box
+/// are never binned.
+struct Items<'a, P> {
+    objects: &'a [u32],
+    store: &'a PrimStore,
+    prims: &'a P,
+    /// Boxes of `objects` in the grid's frame, when it has one.
+    turned: Option<Vec<Aabb>>,
+    children: Vec<(u32, Aabb)>,
+    margin: f32,
+}
+
+impl<P: Primitives> Items<'_, P> {
+    fn len(&self) -> usize {
+        self.objects.len() + self.children.len()
+    }
+
+    /// Item `k`: its reference and widened box, or `None` if it is not binned.
+    #[inline]
+    fn get(&self, k: usize) -> Option<(u32, Aabb)> {
+        if let Some(&s) = self.objects.get(k) {
+            let b = match &self.turned {
+                Some(t) => t[k],
+                None => self.store.bounds(self.prims, s),
+            };
+            finite(&b).then(|| (s, b.expand(self.margin)))
+        } else {
+            Some(self.children[k - self.objects.len()])
+        }
+    }
+
+    fn bounds(&self) -> Aabb {
+        (0..self.len())
+            .into_par_iter()
+            .filter_map(|k| self.get(k))
+            .fold(|| Aabb::EMPTY, |a, (_, b)| a.union(&b))
+            .reduce(|| Aabb::EMPTY, |a, b| a.union(&b))
+    }
+}
+
+impl GridHierarchy {
+    /// The margin of the module documentation for a scene whose finite boxes span `bounds`.
+    fn margin_for(bounds: &Aabb) -> f32 {
+        let m = if bounds.is_empty() {
+            0.0
+        } else {
+            bounds.magnitude().max(bounds.extent().max_element())
+        };
+        (m * 2f32.powi(-17)).max(1e-30)
+    }
+
+    /// Builds the grids of `plans` (grid 0 is the root; a grid's children come after it) over
+    /// `store` (entries without a finite box are never binned). With `prune`, an object is referenced only by the cells its own surface meets
+    /// ([`Primitives::overlaps_box`]) rather than every cell its box meets.
+    pub fn build<P: Primitives>(
+        prims: &P,
+        store: PrimStore,
+        plans: &[GridPlan],
+        prune: bool,
+    ) -> Result<GridHierarchy, SpecError> {
+        let scene = (0..store.len() as u32)
+            .into_par_iter()
+            .map(|s| store.bounds(prims, s))
+            .filter(finite)
+            .reduce(|| Aabb::EMPTY, |a, b| a.union(&b));
+        let margin = Self::margin_for(&scene);
+        let mut frames = Vec::new();
+        let mut grids: Vec<GridHeader> = plans
+            .iter()
+            .map(|p| {
+                let frame = match p.frame {
+                    Some(f) => {
+                        frames.push(f);
+                        frames.len() as u32 - 1
+                    }
+                    None => NO_FRAME,
+                };
+                GridHeader {
+                    min: Vec3::ZERO,
+                    max: Vec3::ZERO,
+                    size: Vec3::ONE,
+                    inv_size: Vec3::ONE,
+                    res: [1, 1, 1],
+                    first_cell: 0,
+                    frame,
+                    depth: p.depth,
+                    objects: p.objects.len() as u32,
+                }
+            })
+            .collect();
+        // Boxes and resolutions bottom-up: a grid's box covers its children's.
+        let mut items: Vec<Option<Items<P>>> = (0..plans.len()).map(|_| None).collect();
+        for g in (0..plans.len()).rev() {
+            let it = Self::items(prims, &store, &frames, &grids, &plans[g], g, margin);
+            // The root covers the whole scene: its box is the scene's, already known.
+            let bounds = if g == 0 && plans[g].frame.is_none() {
+                scene
+            } else {
+                it.bounds()
+            };
+            let bounds = if bounds.is_empty() {
+                Aabb::new(Vec3::ZERO, Vec3::ZERO)
+            } else {
+                bounds
+            };
+            let h = &mut grids[g];
+            // Flat axes get a thickness so that every cell has a positive size.
+            let b = bounds.expand(margin);
+            (h.min, h.max) = (b.min, b.max);
+            let res = match plans[g].resolution {
+                Resolution::Cubical(cells) => cubical_resolution(b.extent(), cells),
+                Resolution::Fixed(r) => r.map(|x| x.max(1)),
+            };
+            h.set_resolution(res);
+            let budget = (MAX_REFS_PER_ITEM * it.len() as u64)
+                .max(MIN_REF_BUDGET)
+                .min(u32::MAX as u64 / 2);
+            // A sample tells most grids that they are far within the budget; the others
+            // count exactly.
+            let step = (it.len() / 1024).max(1);
+            let sampled = Self::box_reference_count(h, &it, step) * step as u64;
+            while sampled > budget / 4
+                && Self::box_reference_count(h, &it, 1) > budget
+                && h.res != [1, 1, 1]
+            {
+                h.set_resolution(h.res.map(|r| (r / 2).max(1)));
+            }
+            items[g] = Some(it);
+        }
+        let items: Vec<Items<P>> = items.into_iter().flatten().collect();
+        let mut total_cells = 0u64;
+        for h in &mut grids {
+            h.first_cell = total_cells as u32;
+            total_cells += h.cells() as u64;
+        }
+        if total_cells >= u32::MAX as u64 {
+            return Err(SpecError::Build(format!(
+                "{total_cells} cells: more than one hierarchy can address"
+            )));
+        }
+        let prune_with = |h: &GridHeader, r: u32, c: [u32; 3]| {
+            !prune
+                || r & GRID_TAG != 0
+                || h.frame != NO_FRAME
+                || prims.overlaps_box(store.id(r) as usize, &h.cell_box(c))
+        };
+        // A grid of many items is binned by several threads, each over a chunk of its items
+        // with counts of its own; the chunks are consecutive, so every cell still lists its
+        // objects in store order, then its grids.
+        let threads = rayon::current_num_threads().clamp(1, 16);
+        let chunks_of = |it: &Items<P>| {
+            if it.len() >= 1 << 15 { threads } else { 1 }
+        };
+        let chunk = |it: &Items<P>, c: usize| {
+            let k = chunks_of(it);
+            c * it.len() / k..(c + 1) * it.len() / k
+        };
+        // Pass 1: count the references of every cell.
+        let counts: Vec<Vec<Vec<u32>>> = grids
+            .par_iter()
+            .zip(&items)
+            .map(|(h, it)| {
+                (0..chunks_of(it))
+                    .into_par_iter()
+                    .map(|c| {
+                        let mut counts = vec![0u32; h.cells()];
+                        for (r, b) in chunk(it, c).filter_map(|k| it.get(k)) {
+                            Self::for_each_cell(h, &b, |cell, i| {
+                                if prune_with(h, r, cell) {
+                                    counts[i] += 1;
+                                }
+                            });
+                        }
+                        counts
+                    })
+                    .collect()
+            })
+            .collect();
+        // Pass 2: prefix sums into offsets (in parallel over blocks of cells).
+        let mut cell_start = vec![0u32; total_cells as usize + 1];
+        const BLOCK: usize = 1 << 14;
+        let cell_total = |g: usize, i: usize| counts[g].iter().map(|c| c[i] as u64).sum::<u64>();
+        let mut block_sums: Vec<(usize, usize, u64)> = grids
+            .par_iter()
+            .enumerate()
+            .flat_map_iter(|(g, h)| {
+                (0..h.cells().div_ceil(BLOCK)).map(move |b| {
+                    let cells = b * BLOCK..((b + 1) * BLOCK).min(h.cells());
+                    (g, b, cells.map(|i| cell_total(g, i)).sum::<u64>())
+                })
+            })
+            .collect();
+        let mut total = 0u64;
+        for (_, _, s) in &mut block_sums {
+            (*s, total) = (total, total + *s);
+        }
+        if total >= u32::MAX as u64 {
+            return Err(SpecError::Build(format!(
+                "{total} references: more than one hierarchy can address"
+            )));
+        }
+        cell_start[total_cells as usize] = total as u32;
+        {
+            let mut slices = Vec::with_capacity(block_sums.len());
+            let mut rest = &mut cell_start[..total_cells as usize];
+            for &(g, b, _) in &block_sums {
+                let n = BLOCK.min(grids[g].cells() - b * BLOCK);
+                let (s, r) = rest.split_at_mut(n);
+                slices.push(s);
+                rest = r;
+            }
+            slices
+                .into_par_iter()
+                .zip(&block_sums)
+                .for_each(|(out, &(g, b, first))| {
+                    let mut at = first;
+                    for (k, o) in out.iter_mut().enumerate() {
+                        *o = at as u32;
+                        at += cell_total(g, b * BLOCK + k);
+                    }
+                });
+        }
+        // Pass 3: fill. Chunk `c` of a grid starts each cell after the references of the
+        // chunks before it, and every chunk writes only its own slots, so the relaxed atomic
+        // stores never meet; on x86 they are plain stores.
+        let refs: Vec<AtomicU32> = (0..total).map(|_| AtomicU32::new(0)).collect();
+        grids
+            .par_iter()
+            .zip(&items)
+            .zip(&counts)
+            .for_each(|((h, it), grid_counts)| {
+                (0..grid_counts.len()).into_par_iter().for_each(|c| {
+                    let first = h.first_cell as usize;
+                    let mut cursor: Vec<u32> = (0..h.cells())
+                        .map(|i| {
+                            cell_start[first + i]
+                                + grid_counts[..c].iter().map(|k| k[i]).sum::<u32>()
+                        })
+                        .collect();
+                    for (r, b) in chunk(it, c).filter_map(|k| it.get(k)) {
+                        Self::for_each_cell(h, &b, |cell, i| {
+                            if prune_with(h, r, cell) {
+                                refs[cursor[i] as usize].store(r, Ordering::Relaxed);
+                                cursor[i] += 1;
+                            }
+                        });
+                    }
+                });
+            });
+        let refs: Vec<u32> = refs.into_iter().map(AtomicU32::into_inner).collect();
+        let occupied: Vec<u64> = (0..(total_cells as usize).div_ceil(64))
+            .into_par_iter()
+            .map(|w| {
+                let mut bits = 0u64;
+                for k in 0..64 {
+                    let c = w * 64 + k;
+                    if c < total_cells as usize && cell_start[c] != cell_start[c + 1] {
+                        bits |= 1 << k;
+                    }
+                }
+                bits
+            })
+            .collect();
+        Ok(GridHierarchy {
+            store,
+            grids,
+            frames,
+            cell_start,
+            refs,
+            occupied,
+        })
+    }
+
+    /// The items grid `g` bins (four margins in a turned frame: the turn rounds too).
+    fn items<'a, P: Primitives>(
+        prims: &'a P,
+        store: &'a PrimStore,
+        frames: &[Frame],
+        grids: &[GridHeader],
+        plan: &'a GridPlan,
+        g: usize,
+        margin: f32,
+    ) -> Items<'a, P> {
+        let frame = plan.frame;
+        let turned = frame.map(|f| {
+            plan.objects
+                .par_iter()
+                .map(|&s| store.local_bounds(s, &f, &store.bounds(prims, s)))
+                .collect()
+        });
+        let m = if frame.is_some() {
+            4.0 * margin
+        } else {
+            margin
+        };
+        let children = plan
+            .children
+            .iter()
+            .map(|&c| {
+                debug_assert!(c as usize > g, "a grid's children come after it");
+                let cb = grids[c as usize].world_box(frames);
+                let b = match &frame {
+                    Some(f) => f.local_box(&cb),
+                    None => cb,
+                };
+                (c | GRID_TAG, b.expand(m))
+            })
+            .collect();
+        Items {
+            objects: &plan.objects,
+            store,
+            prims,
+            turned,
+            children,
+            margin: m,
+        }
+    }
+
+    /// The number of references box binning makes in `h` for every `step`-th item, without
+    /// touching cells.
+    fn box_reference_count<P: Primitives>(h: &GridHeader, items: &Items<P>, step: usize) -> u64 {
+        (0..items.len().div_ceil(step))
+            .into_par_iter()
+            .filter_map(|k| items.get(k * step))
+            .map(|(_, b)| {
+                let (lo, hi) = h.cell_range(&b);
+                (0..3).map(|a| (hi[a] - lo[a] + 1) as u64).product::<u64>()
+            })
+            .sum()
+    }
+
+    /// Visits every cell of `h` a box meets: its coordinates and its index within the grid.
+    fn for_each_cell(h: &GridHeader, b: &Aabb, mut f: impl FnMut([u32; 3], usize)) {
+        let (lo, hi) = h.cell_range(b);
+        let (rx, ry) = (h.res[0] as usize, h.res[1] as usize);
+        for z in lo[2]..=hi[2] {
+            for y in lo[1]..=hi[1] {
+                for x in lo[0]..=hi[0] {
+                    f([x, y, z], (z as usize * ry + y as usize) * rx + x as usize);
+                }
+            }
+        }
+    }
+
+    /// Walks grid `g` along `ray` from `tmin`, improving `near`; `depth` is the grid's level
+    /// for the counters. Returns `true` when `ANY_HIT` found a hit and the whole query may
+    /// stop. The ray must be traceable ([`crate::geometry::Ray::is_traceable`]).
+    #[allow(clippy::too_many_arguments)]
+    pub fn walk<P: Primitives, C: Counters, const ANY_HIT: bool>(
+        &self,
+        g: u32,
+        prims: &P,
+        ray: &PreparedRay,
+        tmin: f32,
+        near: &mut Nearest,
+        mail: &mut Mailbox,
+        counters: &mut C,
+    ) -> bool {
+        let h = &self.grids[g as usize];
+        let depth = h.depth as usize;
+        counters.box_test(depth);
+        let (o, d, inv) = if h.frame == NO_FRAME {
+            (ray.ray.origin, ray.ray.dir, ray.inv_dir)
+        } else {
+            let f = &self.frames[h.frame as usize];
+            let d = f.dir(ray.ray.dir);
+            (f.point(ray.ray.origin), d, Vec3::ONE / d)
+        };
+        // Slab test; `min`/`max` return the non-NaN operand, so a 0·inf slab is ignored.
+        let ta = (h.min - o) * inv;
+        let tb = (h.max - o) * inv;
+        let t0 = tmin.max(ta.min(tb).max_element());
+        let t1 = near.t.min(ta.max(tb).min_element() * ROBUST_FAR);
+        let entered = t0 <= t1;
+        if !entered {
+            return false;
+        }
+        let p = o + d * t0;
+        let (oa, da, inva) = (o.to_array(), d.to_array(), inv.to_array());
+        let mut cell = [0i32; 3];
+        let mut step = [0i32; 3];
+        let mut out = [i32::MIN; 3];
+        let mut ahead = [0i32; 3];
+        let mut base = [0f32; 3];
+        let mut delta = [0f32; 3];
+        let mut t_next = [f32::INFINITY; 3];
+        let res = h.res;
+        let stride = [1, res[0] as isize, res[0] as isize * res[1] as isize];
+        let mut jump = [0isize; 3];
+        for a in 0..3 {
+            cell[a] = h.coord(a, p[a]) as i32;
+            // The plane `k` of axis `a` is crossed at `base + k·delta`: computed afresh at
+            // every step rather than accumulated, so rounding does not grow with the walk.
+            base[a] = (h.min[a] - oa[a]) * inva[a];
+            delta[a] = h.size[a] * inva[a];
+            if da[a] > 0.0 {
+                (step[a], out[a], ahead[a]) = (1, res[a] as i32, 1);
+            } else if da[a] < 0.0 {
+                (step[a], out[a], ahead[a]) = (-1, -1, 0);
+            } else {
+                continue;
+            }
+            jump[a] = step[a] as isize * stride[a];
+            t_next[a] = base[a] + (cell[a] + ahead[a]) as f32 * delta[a];
+        }
+        let mut idx = h.first_cell as isize
+            + cell[0] as isize
+            + cell[1] as isize * stride[1]
+            + cell[2] as isize * stride[2];
+        loop {
+            counters.cell_visit(depth);
+            let i = idx as usize;
+            if self.occupied[i / 64] & (1 << (i % 64)) != 0 {
+                let (s, e) = (self.cell_start[i] as usize, self.cell_start[i + 1] as usize);
+                for &r in &self.refs[s..e] {
+                    if r & GRID_TAG != 0 {
+                        let sub = r & !GRID_TAG;
+                        if mail.first_grid_visit(sub)
+                            && self
+                                .walk::<P, C, ANY_HIT>(sub, prims, ray, tmin, near, mail, counters)
+                        {
+                            return true;
+                        }
+                        continue;
+                    }
+                    if !mail.first_visit(r) {
+                        continue;
+                    }
+                    counters.prim_test(depth);
+                    if let Some(t) = self.store.intersect(prims, r, ray, tmin, near.t) {
+                        counters.prim_hit(depth);
+                        if near.offer(&self.store, t, r) && ANY_HIT {
+                            return true;
+                        }
+                    }
+                }
+            }
+            let a = if t_next[0] < t_next[1] {
+                if t_next[0] < t_next[2] { 0 } else { 2 }
+            } else if t_next[1] < t_next[2] {
+                1
+            } else {
+                2
+            };
+            if near.t <= t_next[a] {
+                break;
+            }
+            cell[a] += step[a];
+            if cell[a] == out[a] {
+                break;
+            }
+            idx += jump[a];
+            t_next[a] = base[a] + (cell[a] + ahead[a]) as f32 * delta[a];
+        }
+        false
+    }
+
+    /// Closest or any hit of a traceable ray.
+    #[inline]
+    pub fn query<P: Primitives, C: Counters, const ANY_HIT: bool>(
+        &self,
+        prims: &P,
+        ray: &crate::geometry::Ray,
+        counters: &mut C,
+    ) -> Option<super::Hit> {
+        if self.store.is_empty() {
+            return None;
+        }
+        let pr = PreparedRay::new(ray);
+        let mut near = Nearest::new(ray.tmax);
+        self.walk::<P, C, ANY_HIT>(
+            0,
+            prims,
+            &pr,
+            ray.tmin,
+            &mut near,
+            &mut Mailbox::default(),
+            counters,
+        );
+        near.hit(&self.store)
+    }
+
+    pub fn grid_count(&self) -> usize {
+        self.grids.len()
+    }
+
+    pub fn cell_count(&self) -> usize {
+        self.cell_start.len() - 1
+    }
+
+    pub fn reference_count(&self) -> usize {
+        self.refs.len()
+    }
+
+    /// Cells per axis of grid `g`.
+    pub fn resolution(&self, g: usize) -> [u32; 3] {
+        self.grids[g].res
+    }
+
+    /// Bytes of the grids (headers, frames, offsets, references, occupancy), without the store.
+    pub fn grid_memory_bytes(&self) -> usize {
+        self.grids.capacity() * std::mem::size_of::<GridHeader>()
+            + self.frames.capacity() * std::mem::size_of::<Frame>()
+            + 4 * (self.cell_start.capacity() + self.refs.capacity())
+            + 8 * self.occupied.capacity()
+    }
+
+    /// Bytes of the whole structure: grids and store.
+    pub fn memory_bytes(&self) -> usize {
+        self.grid_memory_bytes() + self.store.memory_bytes()
+    }
+
+    /// The statistics of SCG97 §3 for each level of the hierarchy (level 0 = the root).
+    pub fn level_stats(&self) -> Vec<GridLevelStats> {
+        let levels = self
+            .grids
+            .iter()
+            .map(|h| h.depth as usize + 1)
+            .max()
+            .unwrap_or(0);
+        let mut out: Vec<GridLevelStats> = (0..levels)
+            .map(|level| GridLevelStats {
+                level,
+                ..GridLevelStats::default()
+            })
+            .collect();
+        // Per level, over its cells: objects and grids per cell, their squares, and the
+        // number of cells holding any.
+        let mut objects_per_cell = vec![Moments::default(); levels];
+        let mut grids_per_cell = vec![Moments::default(); levels];
+        for h in &self.grids {
+            let d = h.depth as usize;
+            let l = &mut out[d];
+            l.grids += 1;
+            l.objects += h.objects as usize;
+            l.cells += h.cells();
+            l.volume += volume(h);
+            l.memory_bytes += std::mem::size_of::<GridHeader>() + 4 * h.cells() + h.cells() / 8;
+            let first = h.first_cell as usize;
+            for c in first..first + h.cells() {
+                let refs = &self.refs[self.cell_start[c] as usize..self.cell_start[c + 1] as usize];
+                let g = refs.iter().filter(|&&r| r & GRID_TAG != 0).count();
+                l.object_refs += refs.len() - g;
+                l.grid_refs += g;
+                objects_per_cell[d].add((refs.len() - g) as f64);
+                grids_per_cell[d].add(g as f64);
+            }
+        }
+        let root_volume = self.grids.first().map_or(0.0, volume);
+        let total = |f: fn(&GridLevelStats) -> usize| out.iter().map(f).sum::<usize>().max(1);
+        let (to, tg, tc, tp) = (
+            total(|l| l.objects),
+            total(|l| l.grids),
+            total(|l| l.cells),
+            total(|l| l.object_refs + l.grid_refs),
+        );
+        let pct = |x: usize, t: usize| 100.0 * x as f64 / t as f64;
+        for ((l, o), g) in out.iter_mut().zip(&objects_per_cell).zip(&grids_per_cell) {
+            l.memory_bytes += 4 * (l.object_refs + l.grid_refs);
+            l.pct_obj = pct(l.objects, to);
+            l.pct_grids = pct(l.grids, tg);
+            l.pct_voxels = pct(l.cells, tc);
+            l.pct_ptrs = pct(l.object_refs + l.grid_refs, tp);
+            l.pct_vol = if root_volume > 0.0 {
+                100.0 * l.volume / root_volume
+            } else {
+                100.0
+            };
+            l.mu_o_g = l.objects as f64 / l.grids.max(1) as f64;
+            l.pct_o = pct(o.nonzero, l.cells.max(1));
+            (l.mu_o_v, l.sigma_o_v) = o.mean_sd(false);
+            (l.mu_o_v_nonempty, l.sigma_o_v_nonempty) = o.mean_sd(true);
+            l.pct_g = pct(g.nonzero, l.cells.max(1));
+            (l.mu_g_v, l.sigma_g_v) = g.mean_sd(false);
+            (l.mu_g_v_nonempty, l.sigma_g_v_nonempty) = g.mean_sd(true);
+        }
+        out
+    }
+}
+
+fn volume(h: &GridHeader) -> f64 {
+    let e = (h.max - h.min).as_dvec3();
+    e.x * e.y * e.z
+}
+
+/// Count, sum and sum of squares of a sample, and how many of its values are not zero. Zeros
+/// add nothing to the sums, so the moments over the non-zero values come from the same sums.
+#[derive(Clone, Copy, Default)]
+struct Moments {
+    n: usize,
+    nonzero: usize,
+    sum: f64,
+    sum2: f64,
+}
+
+impl Moments {
+    fn add(&mut self, x: f64) {
+        self.n += 1;
+        self.nonzero += (x != 0.0) as usize;
+        self.sum += x;
+        self.sum2 += x * x;
+    }
+
+    /// Mean and standard deviation over all values, or over the non-zero ones.
+    fn mean_sd(&self, nonzero_only: bool) -> (f64, f64) {
+        let n = if nonzero_only { self.nonzero } else { self.n } as f64;
+        if n == 0.0 {
+            return (0.0, 0.0);
+        }
+        let m = self.sum / n;
+        (m, (self.sum2 / n - m * m).max(0.0).sqrt())
+    }
+}
+
+/// The statistics of one hierarchy level (SCG97 §3; level 0 is the root here, where the paper
+/// numbers levels from the smallest objects up).
+///
+/// * Resource repartition: `pct_obj`, `pct_grids`, `pct_voxels`, `pct_ptrs` are the level's
+///   shares of objects stored, grids, cells and references (to objects and to grids);
+///   `pct_vol` the summed volume of its grids over the root's (over 100% in total as soon as
+///   two levels are used; SCG97 §7.1 reads a sum far above, say 120%, as clusters too loose).
+/// * Occupancy: `mu_o_g` objects per grid; `pct_o` the share of cells holding objects;
+///   `mu_o_v`, `sigma_o_v` objects per cell, and `mu_o_v_nonempty`, `sigma_o_v_nonempty` per
+///   cell holding objects (the paper's μo'_v, σo'_v); the same for grids referenced per cell
+///   (`pct_g`, `mu_g_v`, `sigma_g_v`, `mu_g_v_nonempty`, `sigma_g_v_nonempty`).
+#[derive(Clone, Debug, Default, Serialize, PartialEq)]
+pub struct GridLevelStats {
+    pub level: usize,
+    pub grids: usize,
+    pub objects: usize,
+    pub cells: usize,
+    pub object_refs: usize,
+    pub grid_refs: usize,
+    /// Summed volume of the level's grids.
+    pub volume: f64,
+    /// Bytes of the level's grid headers, offsets, occupancy bits and references.
+    pub memory_bytes: usize,
+    pub pct_obj: f64,
+    pub pct_grids: f64,
+    pub pct_voxels: f64,
+    pub pct_ptrs: f64,
+    pub pct_vol: f64,
+    pub mu_o_g: f64,
+    pub pct_o: f64,
+    pub mu_o_v: f64,
+    pub sigma_o_v: f64,
+    pub mu_o_v_nonempty: f64,
+    pub sigma_o_v_nonempty: f64,
+    pub pct_g: f64,
+    pub mu_g_v: f64,
+    pub sigma_g_v: f64,
+    pub mu_g_v_nonempty: f64,
+    pub sigma_g_v_nonempty: f64,
+}

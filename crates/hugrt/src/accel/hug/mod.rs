@@ -1,0 +1,262 @@
+//! The Hierarchy of Uniform Grids (Cazals, Drettakis and Puech, EG95; Cazals and Puech,
+//! SCG97): built bottom-up by
+//!
+//! 1. **filtering** the objects by size ([`filter`]: EG95's `k` levels of equal counts, or
+//!    SCG97's two levels split at a fraction of the largest length);
+//! 2. **clustering** each level's objects with their neighbours ([`cluster`]: EG95's
+//!    `Isolate`/`Cluster3d` on the projections, or SCG97's components of the
+//!    box-intersection graph);
+//! 3. **gridding** each cluster with about one cell per item, cells as cubical as possible
+//!    (or SCG97's heterogeneous gridding), the world grid with more (EG95's `2N`, SCG97's
+//!    `√2` criterion);
+//! 4. **inserting** each cluster's grid, largest levels first, into the cells of the deepest
+//!    grid that contains it, like an object (EG95 §2.3.1).
+//!
+//! The result is a [`GridHierarchy`]; its walk carries one ray state (nearest hit, mailboxes
+//! for objects and for grids referenced from several cells) through every level (EG95
+//! §2.3.2), and is the same code as the uniform grid's.
+//!
+//! # Small and loose clusters
+//! SCG97 §7.5 leaves open what to do with tiny clusters ("is a cluster of 5 polygons still a
+//! cluster?"), and §7.1 diagnoses loose ones by their volume. hugrt gives both back to the
+//! grid they would have been inserted into, whose objects they become: a cluster of fewer than
+//! `min_cluster` objects, and a cluster whose box fills more than `loose` of that grid's
+//! volume. On a scene without clusters (a scanned mesh) every level's single cluster is
+//! loose, and the HUG becomes the uniform grid it should be; with one huge object among many
+//! tiny far-apart ones (EG95 §4.1's failure case), the singletons go back to the world grid
+//! instead of filling its cells with thousands of sub-grids.
+
+mod build;
+pub mod cluster;
+pub mod filter;
+
+pub use build::{Clustering, Insertion, Settings, WorldCells};
+pub use filter::Filter;
+
+use super::grid::check_size;
+use super::hierarchy::GridHierarchy;
+use super::{Accel, Counters, Hit, PrimStore, Primitives, Spec, SpecError, StructureStats};
+use crate::geometry::{Aabb, Ray};
+use rayon::prelude::*;
+
+/// The defaults of `hug` with no keys.
+pub const DEFAULTS: Settings = Settings {
+    filter: Filter::Levels(3),
+    clustering: Clustering::Cluster3d { alpha: 0.01 },
+    world: WorldCells::TwoN,
+    density: 1.0,
+    min_cluster: 16,
+    loose: 0.25,
+    pca: false,
+    hetero: false,
+    insertion: Insertion::Contained,
+};
+
+pub struct Hug {
+    grids: GridHierarchy,
+    report: build::Report,
+    prims: usize,
+    prune: bool,
+}
+
+impl Hug {
+    /// The settings a spec asks for, on top of [`DEFAULTS`].
+    pub fn settings(spec: &Spec) -> Result<Settings, SpecError> {
+        let d = DEFAULTS;
+        let levels = spec.usize_in(
+            "levels",
+            match d.filter {
+                Filter::Levels(k) => k,
+                Filter::Two(_) => 3,
+            },
+            1,
+            16,
+        )?;
+        let fraction = spec.f32_in(
+            "fraction",
+            match d.filter {
+                Filter::Two(f) => f,
+                Filter::Levels(_) => 0.05,
+            },
+            1e-6,
+            1.0,
+        )?;
+        let default_filter = match d.filter {
+            Filter::Levels(_) => "levels",
+            Filter::Two(_) => "two",
+        };
+        let filter = match spec.choice("filter", &["levels", "two"], default_filter)? {
+            "levels" => Filter::Levels(levels),
+            _ => Filter::Two(fraction),
+        };
+        let alpha = spec.f32_in(
+            "alpha",
+            match d.clustering {
+                Clustering::Cluster3d { alpha } => alpha,
+                Clustering::Graph => 0.01,
+            },
+            1e-6,
+            100.0,
+        )?;
+        let default_cluster = match d.clustering {
+            Clustering::Cluster3d { .. } => "cluster3d",
+            Clustering::Graph => "graph",
+        };
+        let clustering = match spec.choice("cluster", &["cluster3d", "graph"], default_cluster)? {
+            "cluster3d" => Clustering::Cluster3d { alpha },
+            _ => Clustering::Graph,
+        };
+        let world = match spec.value("world") {
+            None => d.world,
+            Some("2n") => WorldCells::TwoN,
+            Some("sqrt2") => WorldCells::Sqrt2,
+            Some(_) => {
+                WorldCells::Density(spec.f32_in("world", 2.0, 0.001, 1000.0).map_err(|_| {
+                    SpecError::BadValue {
+                        key: "world".into(),
+                        value: spec.value("world").unwrap_or_default().into(),
+                        reason: "expected 2n, sqrt2 or cells per item (0.001..1000)".into(),
+                    }
+                })?)
+            }
+        };
+        let insertion = match spec.choice(
+            "insert",
+            &["contained", "fig9"],
+            match d.insertion {
+                Insertion::Contained => "contained",
+                Insertion::Fig9 => "fig9",
+            },
+        )? {
+            "fig9" => Insertion::Fig9,
+            _ => Insertion::Contained,
+        };
+        Ok(Settings {
+            filter,
+            clustering,
+            world,
+            density: spec.f32_in("density", d.density, 0.001, 1000.0)?,
+            min_cluster: spec.usize_in("min_cluster", d.min_cluster, 1, 1 << 30)?,
+            loose: spec.f32_in("loose", d.loose, 0.0, 1e30)?,
+            pca: spec.bool("pca", d.pca)?,
+            hetero: spec.bool("hetero", d.hetero)?,
+            insertion,
+        })
+    }
+}
+
+impl Accel for Hug {
+    const NAME: &'static str = "hug";
+    const KEYS: &'static [(&'static str, &'static str)] = &[
+        (
+            "filter",
+            "levels (EG95: equal-count size levels) or two (SCG97: split at a fraction of the largest)",
+        ),
+        (
+            "levels",
+            "number of size levels for filter=levels (EG95: 3)",
+        ),
+        (
+            "fraction",
+            "filter=two: objects under this fraction of the largest length form the lower level (SCG97: 0.05)",
+        ),
+        (
+            "cluster",
+            "cluster3d (EG95: Isolate/Cluster3d on projections) or graph (SCG97: box-intersection components)",
+        ),
+        (
+            "alpha",
+            "cluster3d: delta = alpha * the level's mean length (EG95: 0.01)",
+        ),
+        (
+            "world",
+            "cells of the world grid: 2n (EG95), sqrt2 (SCG97) or cells per item",
+        ),
+        ("density", "cells per item of a cluster grid (EG95: 1)"),
+        (
+            "min_cluster",
+            "clusters of fewer objects are given back to the enclosing grid",
+        ),
+        (
+            "loose",
+            "clusters filling more than this share of the enclosing grid's volume are given back to it",
+        ),
+        (
+            "pca",
+            "true: grid a cluster in the frame of its principal axes when that box is smaller (SCG97 7.2)",
+        ),
+        (
+            "hetero",
+            "true: cells per axis from the overlap numbers of the projections (SCG97 7.3)",
+        ),
+        (
+            "insert",
+            "contained (reference a grid below the deepest grid containing it) or fig9 (also in grids it overlaps)",
+        ),
+        (
+            "prune",
+            "true: reference a cell only if the primitive itself touches it (default false)",
+        ),
+    ];
+
+    fn build<P: Primitives>(prims: &P, spec: &Spec) -> Result<Self, SpecError> {
+        let settings = Hug::settings(spec)?;
+        let prune = spec.bool("prune", false)?;
+        let n = prims.len();
+        check_size(n)?;
+        let store = PrimStore::build(prims);
+        let boxes: Vec<Aabb> = (0..n as u32)
+            .into_par_iter()
+            .map(|s| store.bounds(prims, s))
+            .collect();
+        let (plans, report) = build::plan(&store, &boxes, &settings);
+        drop(boxes);
+        let grids = GridHierarchy::build(prims, store, &plans, prune)?;
+        Ok(Hug {
+            grids,
+            report,
+            prims: n,
+            prune,
+        })
+    }
+
+    fn query<P: Primitives, C: Counters, const ANY_HIT: bool>(
+        &self,
+        prims: &P,
+        ray: &Ray,
+        counters: &mut C,
+    ) -> Option<Hit> {
+        self.grids.query::<P, C, ANY_HIT>(prims, ray, counters)
+    }
+
+    fn memory_bytes(&self) -> usize {
+        std::mem::size_of::<Self>() + self.grids.memory_bytes()
+    }
+
+    fn stats(&self) -> StructureStats {
+        let levels = self.grids.level_stats();
+        let mut s = StructureStats::default();
+        s.push("filter_levels", self.report.levels as f64);
+        s.push("clusters_found", self.report.clusters as f64);
+        s.push("given_back_small", self.report.given_back_small as f64);
+        s.push("given_back_loose", self.report.given_back_loose as f64);
+        s.push("turned_grids", self.report.turned as f64);
+        s.push("grids", self.grids.grid_count() as f64);
+        s.push("depth", levels.len() as f64);
+        s.push("cells", self.grids.cell_count() as f64);
+        s.push("references", self.grids.reference_count() as f64);
+        s.push("sum_pct_vol", levels.iter().map(|l| l.pct_vol).sum::<f64>());
+        s.push("prune", self.prune as u8 as f64);
+        s.push("memory_bytes", self.memory_bytes() as f64);
+        s.push(
+            "structure_bytes_per_primitive",
+            self.grids.grid_memory_bytes() as f64 / self.prims.max(1) as f64,
+        );
+        s.push(
+            "bytes_per_primitive",
+            self.memory_bytes() as f64 / self.prims.max(1) as f64,
+        );
+        s.levels = levels;
+        s
+    }
+}

@@ -1,0 +1,332 @@
+//! The primitive store: a structure's own compact copy of the primitives, laid out for ray
+//! shooting.
+//!
+//! A structure built over [`Primitives`] only knows "bounds of i" and "intersect i"; going
+//! through a scene's general `Shape` enum costs a ~44-byte load and a dispatch per test, and
+//! the primitives of one cell lie wherever the file put them. The store instead keeps
+//!
+//! * triangles (and patches, which intersect as triangles) as three plain vertices, 36 bytes,
+//!   then spheres, then cones, each kind contiguous so that the dispatch is a range check that
+//!   a triangle-only scene always predicts;
+//! * every kind sorted by the Morton code of its box centre, so that the primitives one cell
+//!   or leaf references lie close together in memory;
+//! * `ids`, the permutation back to the primitive's own index, which is what hits report.
+//!
+//! Primitives of no kind the store knows ([`PrimitiveKind::Opaque`]) are kept by index after
+//! the others and intersected through [`Primitives::intersect`].
+//!
+//! The store calls the same intersection functions as the scene's shapes
+//! ([`intersect_triangle`], [`Sphere::intersect`], [`Cone::intersect`]) on the same numbers, so
+//! a hit found through the store is bit for bit the hit brute force finds.
+
+use super::hierarchy::Frame;
+use super::{PrimitiveKind, Primitives};
+use crate::geometry::{Aabb, Cone, PreparedRay, Sphere, Vec3, intersect_triangle};
+use rayon::prelude::*;
+
+pub struct PrimStore {
+    tris: Vec<[Vec3; 3]>,
+    spheres: Vec<Sphere>,
+    cones: Vec<Cone>,
+    /// First store index of spheres, cones and opaque primitives.
+    sphere_start: u32,
+    cone_start: u32,
+    opaque_start: u32,
+    /// Store index → primitive index.
+    ids: Vec<u32>,
+}
+
+/// Whether a box can be binned: not empty and finite.
+pub(crate) fn finite(b: &Aabb) -> bool {
+    !b.is_empty() && b.min.is_finite() && b.max.is_finite()
+}
+
+/// Spreads the low 10 bits of `x` to every third bit.
+fn spread3(x: u32) -> u32 {
+    let mut x = x & 0x3ff;
+    x = (x | x << 16) & 0x0300_00ff;
+    x = (x | x << 8) & 0x0300_f00f;
+    x = (x | x << 4) & 0x030c_30c3;
+    x = (x | x << 2) & 0x0924_9249;
+    x
+}
+
+/// 30-bit Morton code of `p` inside `b` (10 bits per axis, clamped to the box).
+fn morton(p: Vec3, b: &Aabb) -> u32 {
+    let e = b.extent();
+    let scale = |a: usize| {
+        if e[a] > 0.0 {
+            (((p[a] - b.min[a]) / e[a]).clamp(0.0, 1.0) * 1023.0) as u32
+        } else {
+            0
+        }
+    };
+    spread3(scale(0)) | spread3(scale(1)) << 1 | spread3(scale(2)) << 2
+}
+
+/// Sorts by the upper 32 bits, least significant digit first (11, 11 and 10 bits): three
+/// linear passes, where a comparison sort of millions of keys takes several times longer.
+fn radix_sort_high32(v: &mut Vec<u64>) {
+    let mut tmp = vec![0u64; v.len()];
+    for (shift, bits) in [(32, 11), (43, 11), (54, 10)] {
+        let mask = (1u64 << bits) - 1;
+        let mut count = vec![0usize; (1 << bits) + 1];
+        for &x in v.iter() {
+            count[((x >> shift) & mask) as usize + 1] += 1;
+        }
+        for d in 0..1 << bits {
+            count[d + 1] += count[d];
+        }
+        for &x in v.iter() {
+            let d = ((x >> shift) & mask) as usize;
+            tmp[count[d]] = x;
+            count[d] += 1;
+        }
+        std::mem::swap(v, &mut tmp);
+    }
+}
+
+impl PrimStore {
+    /// Copies the primitives into store order: by kind, then by the Morton code of the box
+    /// centre. The codes are taken inside the box of a sample of the primitives (clamped at
+    /// its sides): an order, not a bound, so it needs no exact box.
+    pub fn build<P: Primitives>(prims: &P) -> PrimStore {
+        let n = prims.len();
+        assert!(n < u32::MAX as usize, "at most 2^32-2 primitives");
+        let step = (n / 4096).max(1);
+        let sample = (0..n.div_ceil(step))
+            .into_par_iter()
+            .map(|k| prims.bounds(k * step))
+            .filter(finite)
+            .reduce(|| Aabb::EMPTY, |a, b| a.union(&b));
+        let rank = |k: PrimitiveKind| -> u64 {
+            match k {
+                PrimitiveKind::Triangle(_) => 0,
+                PrimitiveKind::Sphere(_) => 1,
+                PrimitiveKind::Cone(_) => 2,
+                PrimitiveKind::Opaque => 3,
+            }
+        };
+        // Key: kind (2 bits), Morton code (30 bits), primitive index (32 bits).
+        let mut keys: Vec<u64> = (0..n)
+            .into_par_iter()
+            .map(|i| {
+                let b = &prims.bounds(i);
+                let code = if finite(b) {
+                    morton(b.center(), &sample)
+                } else {
+                    (1 << 30) - 1
+                };
+                (rank(prims.kind(i)) << 30 | code as u64) << 32 | i as u64
+            })
+            .collect();
+        radix_sort_high32(&mut keys);
+        let id = |k: u64| (k & 0xffff_ffff) as usize;
+        let start = |r: u64| keys.partition_point(|&k| k >> 62 < r);
+        let (sphere_start, cone_start, opaque_start) = (start(1), start(2), start(3));
+        let tris = keys[..sphere_start]
+            .par_iter()
+            .map(|&k| match prims.kind(id(k)) {
+                PrimitiveKind::Triangle(v) => v,
+                _ => unreachable!("sorted by kind"),
+            })
+            .collect();
+        let spheres = keys[sphere_start..cone_start]
+            .par_iter()
+            .map(|&k| match prims.kind(id(k)) {
+                PrimitiveKind::Sphere(s) => s,
+                _ => unreachable!("sorted by kind"),
+            })
+            .collect();
+        let cones = keys[cone_start..opaque_start]
+            .par_iter()
+            .map(|&k| match prims.kind(id(k)) {
+                PrimitiveKind::Cone(c) => c,
+                _ => unreachable!("sorted by kind"),
+            })
+            .collect();
+        PrimStore {
+            tris,
+            spheres,
+            cones,
+            sphere_start: sphere_start as u32,
+            cone_start: cone_start as u32,
+            opaque_start: opaque_start as u32,
+            ids: keys.par_iter().map(|&k| id(k) as u32).collect(),
+        }
+    }
+
+    pub fn len(&self) -> usize {
+        self.ids.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.ids.is_empty()
+    }
+
+    /// The primitive's own index (what hits report) of store entry `s`.
+    #[inline(always)]
+    pub fn id(&self, s: u32) -> u32 {
+        self.ids[s as usize]
+    }
+
+    /// Hit parameter of store entry `s` in `[tmin, tmax]`, exactly as
+    /// `prims.intersect(self.id(s), ..)` computes it.
+    #[inline(always)]
+    pub fn intersect<P: Primitives>(
+        &self,
+        prims: &P,
+        s: u32,
+        ray: &PreparedRay,
+        tmin: f32,
+        tmax: f32,
+    ) -> Option<f32> {
+        if s < self.sphere_start {
+            intersect_triangle(ray, &self.tris[s as usize], tmin, tmax)
+        } else {
+            self.intersect_other(prims, s, ray, tmin, tmax)
+        }
+    }
+
+    #[inline(never)]
+    fn intersect_other<P: Primitives>(
+        &self,
+        prims: &P,
+        s: u32,
+        ray: &PreparedRay,
+        tmin: f32,
+        tmax: f32,
+    ) -> Option<f32> {
+        if s < self.cone_start {
+            self.spheres[(s - self.sphere_start) as usize].intersect(ray, tmin, tmax)
+        } else if s < self.opaque_start {
+            self.cones[(s - self.cone_start) as usize].intersect(ray, tmin, tmax)
+        } else {
+            prims.intersect(self.id(s) as usize, ray, tmin, tmax)
+        }
+    }
+
+    /// The box of store entry `s`: what `prims.bounds(self.id(s))` gives, recomputed from the
+    /// compact copy (the same arithmetic as the scene's shapes) rather than stored.
+    #[inline]
+    pub fn bounds<P: Primitives>(&self, prims: &P, s: u32) -> Aabb {
+        if s < self.sphere_start {
+            Aabb::from_points(&self.tris[s as usize])
+        } else if s < self.cone_start {
+            self.spheres[(s - self.sphere_start) as usize].bounds()
+        } else if s < self.opaque_start {
+            self.cones[(s - self.cone_start) as usize].bounds()
+        } else {
+            prims.bounds(self.id(s) as usize)
+        }
+    }
+
+    /// The vertices of store entry `s`, if it is a triangle.
+    pub fn triangle(&self, s: u32) -> Option<&[Vec3; 3]> {
+        self.tris.get(s as usize)
+    }
+
+    /// Box of store entry `s` in frame `f` (`world` is its world-space box): tight for
+    /// triangles, spheres and cones, the turned world box otherwise.
+    pub(crate) fn local_bounds(&self, s: u32, f: &Frame, world: &Aabb) -> Aabb {
+        if s < self.sphere_start {
+            Aabb::from_points(&self.tris[s as usize].map(|v| f.point(v)))
+        } else if s < self.cone_start {
+            let sp = &self.spheres[(s - self.sphere_start) as usize];
+            Sphere {
+                center: f.point(sp.center),
+                radius: sp.radius,
+            }
+            .bounds()
+        } else if s < self.opaque_start {
+            let c = &self.cones[(s - self.cone_start) as usize];
+            Cone {
+                base: f.point(c.base),
+                apex: f.point(c.apex),
+                ..*c
+            }
+            .bounds()
+        } else {
+            f.local_box(world)
+        }
+    }
+
+    /// Bytes held by the store.
+    pub fn memory_bytes(&self) -> usize {
+        self.tris.capacity() * std::mem::size_of::<[Vec3; 3]>()
+            + self.spheres.capacity() * std::mem::size_of::<Sphere>()
+            + self.cones.capacity() * std::mem::size_of::<Cone>()
+            + self.ids.capacity() * 4
+    }
+}
+
+/// The nearest hit found so far during one query, in store terms: `t` starts at the ray's
+/// `tmax`, so "nothing nearer than `t`" is one comparison whether or not anything was hit.
+#[derive(Clone, Copy, Debug)]
+pub struct Nearest {
+    pub t: f32,
+    /// Store index of the hit, `u32::MAX` while there is none.
+    pub s: u32,
+}
+
+impl Nearest {
+    pub fn new(tmax: f32) -> Self {
+        Nearest {
+            t: tmax,
+            s: u32::MAX,
+        }
+    }
+
+    /// Records a hit of store entry `s` at `t <= self.t`. Ties in `t` go to the lower primitive
+    /// index, as in [`super::Hit::improves`], so the answer does not depend on the order in
+    /// which a structure tests its candidates. Returns whether the hit was taken.
+    #[inline(always)]
+    pub fn offer(&mut self, store: &PrimStore, t: f32, s: u32) -> bool {
+        let better =
+            t < self.t || self.s == u32::MAX || (t == self.t && store.id(s) < store.id(self.s));
+        if better {
+            self.t = t;
+            self.s = s;
+        }
+        better
+    }
+
+    pub fn hit(&self, store: &PrimStore) -> Option<super::Hit> {
+        (self.s != u32::MAX).then(|| super::Hit {
+            t: self.t,
+            prim: store.id(self.s),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn morton_interleaves_axes() {
+        assert_eq!(spread3(0b11), 0b1001);
+        assert_eq!(spread3(0x3ff), 0x0924_9249);
+        let b = Aabb::new(Vec3::ZERO, Vec3::ONE);
+        assert_eq!(morton(Vec3::ZERO, &b), 0);
+        assert!(morton(Vec3::new(1.0, 0.0, 0.0), &b) < morton(Vec3::new(0.0, 1.0, 0.0), &b));
+        assert!(morton(Vec3::new(0.0, 1.0, 0.0), &b) < morton(Vec3::new(0.0, 0.0, 1.0), &b));
+        assert_eq!(morton(Vec3::ONE, &b), (1 << 30) - 1);
+        assert_eq!(morton(Vec3::splat(7.0), &b), (1 << 30) - 1, "clamped");
+    }
+
+    #[test]
+    fn radix_sort_orders_by_the_high_half() {
+        let mut v: Vec<u64> = (0..5000u64)
+            .map(|i| (i.wrapping_mul(2654435761) % 100_000) << 32 | i)
+            .collect();
+        let mut want = v.clone();
+        want.sort_by_key(|&x| x >> 32);
+        radix_sort_high32(&mut v);
+        assert!(v.windows(2).all(|w| w[0] >> 32 <= w[1] >> 32));
+        want.sort();
+        let mut got = v.clone();
+        got.sort();
+        assert_eq!(got, want);
+    }
+}
