@@ -66,7 +66,7 @@ fn morton(p: Vec3, b: &Aabb) -> u32 {
 
 /// Sorts by the upper 32 bits, least significant digit first (11, 11 and 10 bits): three
 /// linear passes, where a comparison sort of millions of keys takes several times longer.
-fn radix_sort_high32(v: &mut Vec<u64>) {
+pub(crate) fn radix_sort_high32(v: &mut Vec<u64>) {
     let mut tmp = vec![0u64; v.len()];
     for (shift, bits) in [(32, 11), (43, 11), (54, 10)] {
         let mask = (1u64 << bits) - 1;
@@ -83,6 +83,19 @@ fn radix_sort_high32(v: &mut Vec<u64>) {
             count[d] += 1;
         }
         std::mem::swap(v, &mut tmp);
+    }
+}
+
+/// Sorts store indices ascending: radix passes for long lists, a comparison sort for short.
+pub(crate) fn sort_indices(v: &mut [u32]) {
+    if v.len() < 4096 {
+        v.sort_unstable();
+        return;
+    }
+    let mut wide: Vec<u64> = v.iter().map(|&x| (x as u64) << 32).collect();
+    radix_sort_high32(&mut wide);
+    for (o, w) in v.iter_mut().zip(&wide) {
+        *o = (w >> 32) as u32;
     }
 }
 

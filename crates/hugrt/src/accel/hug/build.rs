@@ -4,8 +4,10 @@ use super::cluster::{Item, cluster3d, graph_components};
 use super::filter::Filter;
 use crate::accel::PrimStore;
 use crate::accel::hierarchy::{Frame, GridPlan, MAX_CELLS, Resolution};
+use crate::accel::store::{finite, sort_indices};
 use crate::geometry::{Aabb, Vec3};
 use glam::DMat3;
+use rayon::prelude::*;
 
 /// How a level's objects are clustered.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -110,12 +112,12 @@ impl Planned {
 /// Plans the grids of a HUG over the store entries whose boxes are `boxes` (store order).
 /// Grid 0 is the world; every grid comes after the grids that reference it.
 pub fn plan(store: &PrimStore, boxes: &[Aabb], s: &Settings) -> (Vec<GridPlan>, Report) {
-    let finite = |b: &Aabb| !b.is_empty() && b.min.is_finite() && b.max.is_finite();
     let binned: Vec<u32> = (0..boxes.len() as u32)
+        .into_par_iter()
         .filter(|&i| finite(&boxes[i as usize]))
         .collect();
     let lengths: Vec<f32> = binned
-        .iter()
+        .par_iter()
         .map(|&i| boxes[i as usize].diagonal())
         .collect();
     let levels = s.filter.apply(&lengths);
@@ -129,8 +131,9 @@ pub fn plan(store: &PrimStore, boxes: &[Aabb], s: &Settings) -> (Vec<GridPlan>, 
         .map(|l| l.objects.iter().map(|&k| binned[k as usize]).collect())
         .unwrap_or_default();
     let world_box = binned
-        .iter()
-        .fold(Aabb::EMPTY, |a, &i| a.union(&boxes[i as usize]));
+        .par_iter()
+        .fold(|| Aabb::EMPTY, |a, &i| a.union(&boxes[i as usize]))
+        .reduce(|| Aabb::EMPTY, |a, b| a.union(&b));
     let mut grids = vec![Planned {
         plan: GridPlan {
             objects: world_objects,
@@ -144,25 +147,35 @@ pub fn plan(store: &PrimStore, boxes: &[Aabb], s: &Settings) -> (Vec<GridPlan>, 
     }];
     // EG95 §2.3.1: the other levels in decreasing order of size, each cluster's grid
     // inserted below the deepest grid that contains it.
+    // The levels are clustered independently of each other, so all at once; only the
+    // insertion below depends on the order of the levels.
+    let clustered: Vec<(Vec<Item>, Vec<std::ops::Range<usize>>)> = levels
+        .par_iter()
+        .rev()
+        .skip(1)
+        .map(|level| {
+            let mut items: Vec<Item> = level
+                .objects
+                .iter()
+                .map(|&k| {
+                    let i = binned[k as usize];
+                    let b = &boxes[i as usize];
+                    Item {
+                        lo: b.min.to_array(),
+                        hi: b.max.to_array(),
+                        id: i,
+                    }
+                })
+                .collect();
+            let clusters = match s.clustering {
+                Clustering::Cluster3d { alpha } => cluster3d(&mut items, alpha * level.mean_length),
+                Clustering::Graph => graph_components(&mut items),
+            };
+            (items, clusters)
+        })
+        .collect();
     let mut marks = Vec::new();
-    for level in levels.iter().rev().skip(1) {
-        let mut items: Vec<Item> = level
-            .objects
-            .iter()
-            .map(|&k| {
-                let i = binned[k as usize];
-                let b = &boxes[i as usize];
-                Item {
-                    lo: b.min.to_array(),
-                    hi: b.max.to_array(),
-                    id: i,
-                }
-            })
-            .collect();
-        let clusters = match s.clustering {
-            Clustering::Cluster3d { alpha } => cluster3d(&mut items, alpha * level.mean_length),
-            Clustering::Graph => graph_components(&mut items),
-        };
+    for (items, clusters) in clustered {
         report.clusters += clusters.len();
         let index = ContainerIndex::new(&grids);
         for range in clusters {
@@ -215,7 +228,7 @@ pub fn plan(store: &PrimStore, boxes: &[Aabb], s: &Settings) -> (Vec<GridPlan>, 
         .into_iter()
         .enumerate()
         .map(|(g, mut p)| {
-            p.plan.objects.sort_unstable();
+            sort_indices(&mut p.plan.objects);
             let items = (p.plan.objects.len() + p.plan.children.len()) as f64;
             let cells = items
                 * if g == 0 {

@@ -6,6 +6,7 @@
 //! would make an algorithm quadratic, a work budget stops the refinement and keeps coarser
 //! clusters, and the build stays `O(n log n)`.
 
+use crate::accel::store::radix_sort_high32;
 use std::ops::Range;
 
 /// An object as clustering sees it: its box and an index the caller gives it.
@@ -20,12 +21,56 @@ pub struct Item {
 /// reports `Σ N_i log N_i / n log n` between 3 and 5 on its scenes, far below this.
 const WORK_PER_OBJECT: usize = 32;
 
+/// A `u32` whose order is the total order of the `f32` `x`.
+fn ordered_bits(x: f32) -> u32 {
+    let b = x.to_bits();
+    if b >> 31 == 0 { b | 1 << 31 } else { !b }
+}
+
+/// Scratch space for sorting, allocated once per clustering.
+#[derive(Default)]
+struct Scratch {
+    keys: Vec<u64>,
+    items: Vec<Item>,
+}
+
+/// Sorts `items` by the left end of their projections on `axis`: a comparison sort for short
+/// ranges, a radix sort of (key, position) pairs and one gather for long ones.
+fn sort_by_left_end(items: &mut [Item], axis: usize, scratch: &mut Scratch) {
+    if items.len() < 512 {
+        items.sort_unstable_by(|a, b| a.lo[axis].total_cmp(&b.lo[axis]));
+        return;
+    }
+    scratch.keys.clear();
+    scratch.keys.extend(
+        items
+            .iter()
+            .enumerate()
+            .map(|(k, it)| (ordered_bits(it.lo[axis]) as u64) << 32 | k as u64),
+    );
+    radix_sort_high32(&mut scratch.keys);
+    scratch.items.clear();
+    scratch.items.extend(
+        scratch
+            .keys
+            .iter()
+            .map(|&k| items[(k & 0xffff_ffff) as usize]),
+    );
+    items.copy_from_slice(&scratch.items);
+}
+
 /// EG95 §2.2.2, `Isolate`: sorts `items` by the left end of their projections on `axis`,
 /// sweeps keeping the rightmost end seen so far, and cuts wherever the next left end lies `δ`
 /// or more beyond it (so that the objects on each side are not δ-connected along `axis`).
 /// Calls `piece` with each resulting range (relative to `items`), in order.
-fn isolate(items: &mut [Item], axis: usize, delta: f32, mut piece: impl FnMut(Range<usize>)) {
-    items.sort_unstable_by(|a, b| a.lo[axis].total_cmp(&b.lo[axis]));
+fn isolate(
+    items: &mut [Item],
+    axis: usize,
+    delta: f32,
+    scratch: &mut Scratch,
+    mut piece: impl FnMut(Range<usize>),
+) {
+    sort_by_left_end(items, axis, scratch);
     let mut start = 0;
     let mut right = f32::NEG_INFINITY;
     for (i, it) in items.iter().enumerate() {
@@ -75,6 +120,7 @@ pub fn cluster3d(items: &mut [Item], delta: f32) -> Vec<Range<usize>> {
     bottom += 1;
     let mut work = 0usize;
     let budget = WORK_PER_OBJECT * n;
+    let mut scratch = Scratch::default();
     while bottom > 0 {
         bottom -= 1;
         let pc = stack[bottom];
@@ -88,7 +134,7 @@ pub fn cluster3d(items: &mut [Item], delta: f32) -> Vec<Range<usize>> {
         let axis = (pc.axis as usize + 1) % 3;
         let mut pieces = 0;
         let start = range.start;
-        isolate(&mut items[range.clone()], axis, delta, |r| {
+        isolate(&mut items[range.clone()], axis, delta, &mut scratch, |r| {
             pieces += 1;
             // The pieces replace `pc` on the bottom stack; there are never more records than
             // objects, so the two stacks cannot meet.
@@ -164,7 +210,7 @@ pub fn graph_components(items: &mut [Item]) -> Vec<Range<usize>> {
         .max_by(|&a, &b| (hi[a] - lo[a]).total_cmp(&(hi[b] - lo[b])))
         .unwrap_or(0);
     let (o1, o2) = ((axis + 1) % 3, (axis + 2) % 3);
-    items.sort_unstable_by(|a, b| a.lo[axis].total_cmp(&b.lo[axis]));
+    sort_by_left_end(items, axis, &mut Scratch::default());
     let mut parent: Vec<u32> = (0..n as u32).collect();
     let mut active: Vec<u32> = Vec::new();
     let mut work = 0usize;
@@ -241,7 +287,9 @@ mod tests {
             item([4.2; 3], [5.0; 3], 4),
         ];
         let mut pieces = Vec::new();
-        isolate(&mut items, 0, 0.1, |r| pieces.push(r));
+        isolate(&mut items, 0, 0.1, &mut Scratch::default(), |r| {
+            pieces.push(r)
+        });
         // 3.05 is within 0.1 of 3.0 (the rightmost end so far, not 2.5): no cut there.
         assert_eq!(pieces, vec![0..4, 4..5]);
     }
@@ -286,6 +334,22 @@ mod tests {
         assert_eq!(ids(&items, &c), vec![vec![0, 1], vec![2], vec![3]]);
         let mut again = items.clone();
         assert_eq!(cluster3d(&mut again, 0.01).len(), 2);
+    }
+
+    #[test]
+    fn long_ranges_sort_like_short_ones() {
+        let mut items: Vec<Item> = (0..3000u32)
+            .map(|i| {
+                let x = ((i.wrapping_mul(2654435761) % 1000) as f32 - 500.0) * 0.37;
+                item([x, 0.0, 0.0], [x + 1.0, 1.0, 1.0], i)
+            })
+            .collect();
+        let mut want = items.clone();
+        want.sort_by(|a, b| a.lo[0].total_cmp(&b.lo[0]));
+        sort_by_left_end(&mut items, 0, &mut Scratch::default());
+        let lo = |v: &[Item]| v.iter().map(|i| i.lo[0]).collect::<Vec<_>>();
+        assert_eq!(lo(&items), lo(&want));
+        assert!(ordered_bits(-0.5) < ordered_bits(-0.0) && ordered_bits(0.0) < ordered_bits(1e-30));
     }
 
     #[test]

@@ -35,10 +35,20 @@ impl Filter {
         }
         let thresholds: Vec<f32> = match *self {
             Filter::Levels(k) => {
-                let mut sorted = lengths.to_vec();
-                sorted.sort_unstable_by(f32::total_cmp);
-                let n = sorted.len();
-                (1..k.max(1)).map(|i| sorted[i * n / k]).collect()
+                // The slice boundaries are order statistics: selection finds each in linear
+                // time, each within the part of the lengths the previous one left above it.
+                let mut rest = lengths.to_vec();
+                let n = rest.len();
+                let mut taken = 0;
+                let mut out = Vec::new();
+                for i in 1..k.max(1) {
+                    let rank = i * n / k - taken;
+                    let (_, &mut f, _) = rest.select_nth_unstable_by(rank, f32::total_cmp);
+                    out.push(f);
+                    rest.drain(..rank);
+                    taken += rank;
+                }
+                out
             }
             Filter::Two(fraction) => {
                 let max = lengths.iter().cloned().fold(0.0, f32::max);
