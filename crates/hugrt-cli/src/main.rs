@@ -7,7 +7,7 @@ use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
 use hugrt::accel::{AnyAccel, STRUCTURES};
 use hugrt::render::{RenderSettings, render};
-use hugrt::scene::{Scene, procedural};
+use hugrt::scene::Scene;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::path::PathBuf;
 use std::time::Instant;
@@ -102,6 +102,27 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Generate one of the papers' kinds of scene, deterministically per seed, as NFF (with
+    /// camera, lights and materials) or binary PLY (triangles only), by the output's extension.
+    ///
+    /// Kinds: kitchen, building, city, garden, sphereflake, stadium (`hugrt gen --help` lists
+    /// what SIZE means for each). The same scenes are `builtin:KIND[:SIZE]` for the other
+    /// commands.
+    Gen {
+        /// What to generate.
+        #[arg(value_parser = clap::builder::PossibleValuesParser::new(["kitchen", "building", "city", "garden", "sphereflake", "stadium"]))]
+        kind: String,
+        /// Detail or extent (0: the kind's default). kitchen: detail (2); building: kitchens
+        /// (4); city: blocks per side / 4 (2); garden: plants / 16 (2); sphereflake: depth (4);
+        /// stadium: detail of the objects in it (2).
+        #[arg(long, default_value_t = 0)]
+        size: u32,
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Output file: .nff or .ply.
+        #[arg(short, long)]
+        output: PathBuf,
+    },
     /// Measure build time, Mrays/s (1 and 2 threads, incoherent and camera rays) and bytes per
     /// primitive for structures on scenes. Default: every mesh in ../shared/scenes/meshes that
     /// exists plus builtin:room:1000000.
@@ -145,23 +166,9 @@ fn print_counters(c: &hugrt::accel::RayCounters, rays: u64) {
     }
 }
 
-/// Loads a scene file, or generates `builtin:room[:TRIANGLES]`.
+/// Loads a scene file or generates a built-in one ([`Scene::open`]).
 pub(crate) fn load_scene(name: &str) -> Result<Scene> {
-    if let Some(rest) = name.strip_prefix("builtin:") {
-        let (kind, size) = rest.split_once(':').unwrap_or((rest, "60000"));
-        if kind != "room" {
-            bail!("unknown built-in scene '{kind}' (there is: builtin:room[:TRIANGLES])");
-        }
-        let n: usize = size
-            .parse()
-            .ok()
-            .filter(|&n| (1..=100_000_000).contains(&n))
-            .with_context(|| {
-                format!("builtin:room: '{size}' is not a triangle count in 1..=100000000")
-            })?;
-        return Ok(procedural::clustered_room(n, 1));
-    }
-    Ok(Scene::load(name)?)
+    Ok(Scene::open(name)?)
 }
 
 fn build(scene: &Scene, spec: &str) -> Result<(AnyAccel, f64)> {
@@ -337,6 +344,46 @@ fn run(cli: Cli) -> Result<()> {
                     );
                 }
             }
+            Ok(())
+        }
+        Command::Gen {
+            kind,
+            size,
+            seed,
+            output,
+        } => {
+            let max = hugrt::scene::generate::max_size(&kind);
+            if size > max {
+                bail!("--size {size} for {kind}: at most {max}");
+            }
+            let name = output.to_string_lossy().to_ascii_lowercase();
+            type Writer = fn(&Scene, &mut std::io::BufWriter<std::fs::File>) -> std::io::Result<()>;
+            let write: Writer = if name.ends_with(".nff") {
+                |s, w| hugrt::scene::write::write_nff(s, w)
+            } else if name.ends_with(".ply") {
+                |s, w| hugrt::scene::write::write_ply(s, w)
+            } else {
+                bail!("{}: the output must end in .nff or .ply", output.display());
+            };
+            let size = if size == 0 {
+                hugrt::scene::generate::default_size(&kind)
+            } else {
+                size
+            };
+            let scene = hugrt::scene::generate::generate(&kind, size, seed)
+                .with_context(|| format!("unknown kind {kind}"))?;
+            let file = std::fs::File::create(&output)
+                .with_context(|| format!("creating {}", output.display()))?;
+            let mut w = std::io::BufWriter::new(file);
+            write(&scene, &mut w)
+                .and_then(|()| std::io::Write::flush(&mut w))
+                .with_context(|| format!("writing {}", output.display()))?;
+            println!(
+                "{kind} (size {size}, seed {seed}): {} primitives, {} lights -> {}",
+                scene.shapes.len(),
+                scene.lights.len(),
+                output.display()
+            );
             Ok(())
         }
         Command::Bench {

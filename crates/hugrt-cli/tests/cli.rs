@@ -182,3 +182,45 @@ fn stats_json_reports_scene_and_structure() {
     assert_eq!(j["scene_stats"]["objects"], 13);
     assert!(j["structure"]["bytes_per_primitive"].as_f64().unwrap() > 0.0);
 }
+
+#[test]
+fn gen_writes_nff_and_ply_that_load_back() {
+    let dir = tempfile::tempdir().unwrap();
+    for ext in ["nff", "ply"] {
+        let out = dir.path().join(format!("flake.{ext}"));
+        let o = hugrt(&[
+            "gen",
+            "sphereflake",
+            "--size",
+            "2",
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let s = hugrt::scene::Scene::load(&out).unwrap();
+        assert!(!s.shapes.is_empty());
+    }
+    let bad = dir.path().join("flake.obj");
+    let o = hugrt(&["gen", "sphereflake", "-o", bad.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains(".nff or .ply"), "{}", stderr(&o));
+    assert!(!bad.exists(), "nothing is written for a bad extension");
+    let o = hugrt(&[
+        "render",
+        "builtin:kitchen:1",
+        "--width",
+        "24",
+        "--height",
+        "16",
+        "--quiet",
+        "-o",
+        dir.path().join("k.png").to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = hugrt(&["stats", "builtin:castle"]);
+    assert!(
+        stderr(&o).contains("there are: room, kitchen"),
+        "{}",
+        stderr(&o)
+    );
+}

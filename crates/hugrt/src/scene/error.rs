@@ -3,11 +3,10 @@ use thiserror::Error;
 /// Why a scene could not be read. Text formats say `file:line`, binary PLY the element.
 #[derive(Debug, Error)]
 pub enum SceneError {
-    #[error("{path}: {source}")]
-    Io {
-        path: String,
-        source: std::io::Error,
-    },
+    /// The error is part of the message, not a separate cause: printing the chain of causes
+    /// would repeat it.
+    #[error("{path}: {error}")]
+    Io { path: String, error: std::io::Error },
     #[error("{path}:{line}: {reason}")]
     Parse {
         path: String,
@@ -23,10 +22,10 @@ pub enum SceneError {
 }
 
 impl SceneError {
-    pub(crate) fn io(path: &str, source: std::io::Error) -> Self {
+    pub(crate) fn io(path: &str, error: std::io::Error) -> Self {
         SceneError::Io {
             path: path.to_string(),
-            source,
+            error,
         }
     }
     pub(crate) fn parse(path: &str, line: usize, reason: impl Into<String>) -> Self {

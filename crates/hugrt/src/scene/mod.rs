@@ -2,10 +2,12 @@
 //! (each optionally gzip-compressed) or generated in code.
 
 mod error;
+pub mod generate;
 mod nff;
 mod obj;
 mod ply;
 pub mod procedural;
+pub mod write;
 
 pub use error::SceneError;
 
@@ -100,6 +102,50 @@ impl Scene {
         let name = path.display().to_string();
         let raw = std::fs::read(path).map_err(|e| SceneError::io(&name, e))?;
         Scene::from_bytes(&name, &raw)
+    }
+
+    /// A scene by name: `builtin:room[:TRIANGLES]` (the clustered room of [`procedural`]),
+    /// `builtin:KIND[:SIZE]` for a generated scene ([`generate::KINDS`]), or a file
+    /// ([`Scene::load`]).
+    pub fn open(name: &str) -> Result<Scene, SceneError> {
+        let Some(rest) = name.strip_prefix("builtin:") else {
+            return Scene::load(name);
+        };
+        let (kind, size) = match rest.split_once(':') {
+            Some((k, s)) => (k, Some(s)),
+            None => (rest, None),
+        };
+        let bad = |reason: String| SceneError::invalid(name, reason);
+        if kind == "room" {
+            let n = match size {
+                None => 60_000,
+                Some(s) => s
+                    .parse()
+                    .ok()
+                    .filter(|n| (1..=100_000_000).contains(n))
+                    .ok_or_else(|| {
+                        bad(format!("'{s}' is not a triangle count in 1..=100000000"))
+                    })?,
+            };
+            return Ok(procedural::clustered_room(n, 1));
+        }
+        if !generate::KINDS.iter().any(|(k, _, _)| *k == kind) {
+            let kinds: Vec<&str> = generate::KINDS.iter().map(|k| k.0).collect();
+            return Err(bad(format!(
+                "unknown built-in scene '{kind}' (there are: room, {})",
+                kinds.join(", ")
+            )));
+        }
+        let max = generate::max_size(kind);
+        let size = match size {
+            None => 0,
+            Some(s) => s
+                .parse()
+                .ok()
+                .filter(|n| (1..=max).contains(n))
+                .ok_or_else(|| bad(format!("'{s}' is not a size in 1..={max}")))?,
+        };
+        Ok(generate::generate(kind, size, 1).expect("a known kind"))
     }
 
     /// Parses scene data; `name`'s extension picks the format, as in [`Scene::load`].

@@ -1,0 +1,147 @@
+//! Writing scenes: NFF, which holds everything a [`Scene`] has, and binary PLY, which holds
+//! triangles only.
+
+use super::Scene;
+use crate::geometry::{Cone, Shape, Sphere, Vec3};
+use std::io::{self, Write};
+
+/// Writes `scene` as NFF: the view, background, lights (with their colours), then each
+/// material followed by its primitives. Numbers are written in the shortest form that reads
+/// back to the same `f32`, so the scene read back is the same scene, primitive for primitive.
+pub fn write_nff(scene: &Scene, out: &mut impl Write) -> io::Result<()> {
+    let v = |p: Vec3| format!("{} {} {}", p.x, p.y, p.z);
+    let c = &scene.camera;
+    writeln!(out, "# written by hugrt")?;
+    writeln!(out, "v\nfrom {}\nat {}\nup {}", v(c.from), v(c.at), v(c.up))?;
+    writeln!(
+        out,
+        "angle {}\nhither 0.001\nresolution {} {}",
+        c.fov_deg, c.width, c.height
+    )?;
+    writeln!(out, "b {}", v(scene.background))?;
+    for l in &scene.lights {
+        writeln!(out, "l {} {}", v(l.position), v(l.color))?;
+    }
+    let mut run = 0;
+    for (i, shape) in scene.shapes.iter().enumerate() {
+        while run < scene.material_runs.len() && scene.material_runs[run].0 as usize <= i {
+            let m = &scene.materials[scene.material_runs[run].1 as usize];
+            writeln!(
+                out,
+                "f {} {} {} {} {} {}",
+                v(m.color),
+                m.kd,
+                m.ks,
+                m.shine,
+                m.transmittance,
+                m.ior
+            )?;
+            run += 1;
+        }
+        match shape {
+            Shape::Triangle(t) => writeln!(out, "p 3\n{}\n{}\n{}", v(t[0]), v(t[1]), v(t[2]))?,
+            Shape::Patch { v: t, normals } => {
+                let n = scene.patch_normals[*normals as usize];
+                writeln!(out, "pp 3")?;
+                for k in 0..3 {
+                    writeln!(out, "{} {}", v(t[k]), v(n[k]))?;
+                }
+            }
+            Shape::Sphere(s) => writeln!(out, "s {} {}", v(s.center), s.radius)?,
+            Shape::Cone(k) => writeln!(
+                out,
+                "c\n{} {}\n{} {}",
+                v(k.base),
+                k.base_radius,
+                v(k.apex),
+                k.apex_radius
+            )?,
+        }
+    }
+    Ok(())
+}
+
+/// Sides of the polygonal stand-ins for spheres and cones in PLY files.
+const ROUND_SIDES: usize = 16;
+
+fn sphere_triangles(s: &Sphere, out: &mut Vec<[Vec3; 3]>) {
+    let rings = ROUND_SIDES / 2;
+    let p = |i: usize, j: usize| {
+        let th = std::f32::consts::PI * i as f32 / rings as f32;
+        let ph = std::f32::consts::TAU * j as f32 / ROUND_SIDES as f32;
+        s.center + Vec3::new(th.sin() * ph.cos(), th.cos(), th.sin() * ph.sin()) * s.radius.abs()
+    };
+    for i in 0..rings {
+        for j in 0..ROUND_SIDES {
+            let (a, b, c, d) = (p(i, j), p(i, j + 1), p(i + 1, j + 1), p(i + 1, j));
+            if i != 0 {
+                out.push([a, c, b]);
+            }
+            if i != rings - 1 {
+                out.push([a, d, c]);
+            }
+        }
+    }
+}
+
+fn cone_triangles(k: &Cone, out: &mut Vec<[Vec3; 3]>) {
+    let w = (k.apex - k.base).normalize_or(Vec3::Y);
+    let u = w.any_orthonormal_vector();
+    let v = w.cross(u);
+    let ring = |c: Vec3, r: f32, j: usize| {
+        let a = std::f32::consts::TAU * j as f32 / ROUND_SIDES as f32;
+        c + (u * a.cos() + v * a.sin()) * r.abs()
+    };
+    for j in 0..ROUND_SIDES {
+        let (a, b) = (
+            ring(k.base, k.base_radius, j),
+            ring(k.base, k.base_radius, j + 1),
+        );
+        let (c, d) = (
+            ring(k.apex, k.apex_radius, j + 1),
+            ring(k.apex, k.apex_radius, j),
+        );
+        out.push([a, b, c]);
+        out.push([a, c, d]);
+    }
+}
+
+/// Writes `scene` as binary little-endian PLY (`float x y z`, `list uchar int` faces), the
+/// format of the yardstick meshes and embree-peer. Triangles and patches are written as they
+/// are, three vertices each, in primitive order; spheres and cones, which PLY cannot hold,
+/// become meshes of 16 sides (so primitive indices then differ from the scene's).
+pub fn write_ply(scene: &Scene, out: &mut impl Write) -> io::Result<()> {
+    let mut tris = Vec::with_capacity(scene.shapes.len());
+    for s in &scene.shapes {
+        match s {
+            Shape::Triangle(t) | Shape::Patch { v: t, .. } => tris.push(*t),
+            Shape::Sphere(s) => sphere_triangles(s, &mut tris),
+            Shape::Cone(k) => cone_triangles(k, &mut tris),
+        }
+    }
+    write!(
+        out,
+        "ply\nformat binary_little_endian 1.0\ncomment written by hugrt\n\
+         element vertex {}\nproperty float x\nproperty float y\nproperty float z\n\
+         element face {}\nproperty list uchar int vertex_indices\nend_header\n",
+        3 * tris.len(),
+        tris.len()
+    )?;
+    let mut buf = Vec::with_capacity(36 * tris.len());
+    for t in &tris {
+        for p in t {
+            for x in p.to_array() {
+                buf.extend_from_slice(&x.to_le_bytes());
+            }
+        }
+    }
+    out.write_all(&buf)?;
+    buf.clear();
+    for i in 0..tris.len() as u32 {
+        buf.push(3);
+        for k in 0..3 {
+            buf.extend_from_slice(&(3 * i + k).to_le_bytes());
+        }
+    }
+    out.write_all(&buf)
+}
