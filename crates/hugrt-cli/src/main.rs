@@ -2,6 +2,7 @@
 //! and prints; no algorithm lives here.
 
 mod bench;
+mod report;
 
 use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
@@ -310,39 +311,12 @@ fn run(cli: Cli) -> Result<()> {
                     "scene": name, "accel": accel, "scene_stats": s, "build_seconds": build_s,
                     "scene_memory_bytes": scene.memory_bytes(),
                     "structure": st.entries.iter().map(|(k, v)| (k.clone(), serde_json::json!(v))).collect::<serde_json::Map<_, _>>(),
+                    "levels": st.levels,
                 });
                 println!("{}", serde_json::to_string_pretty(&j)?);
             } else {
-                println!("scene {name}");
-                println!("  objects             {}", s.objects);
-                println!("  scene diagonal      {:.6}", s.scene_diagonal);
-                println!(
-                    "  min / max length    {:.3e} / {:.3e}",
-                    s.min_length, s.max_length
-                );
-                println!("  min/max             {:.3e}", s.min_over_max);
-                println!("  min/diag            {:.3e}", s.min_over_diagonal);
-                println!("  %.2                 {:.1}%", s.percent_below_0_2);
-                println!("  length histogram (fraction of max length, 10 bins):");
-                for (k, c) in s.histogram.iter().enumerate() {
-                    println!(
-                        "    [{:.1}, {:.1})  {c}",
-                        k as f32 / 10.0,
-                        (k + 1) as f32 / 10.0
-                    );
-                }
-                println!("  primitive memory    {} bytes", scene.memory_bytes());
-                println!("structure {accel} (built in {:.1} ms)", build_s * 1e3);
-                for (k, v) in &st.entries {
-                    println!(
-                        "  {k:<22}{}",
-                        if v.fract() == 0.0 {
-                            format!("{v}")
-                        } else {
-                            format!("{v:.4}")
-                        }
-                    );
-                }
+                report::print_scene_stats(&name, &s, scene.memory_bytes());
+                report::print_structure_stats(&accel, build_s, &st);
             }
             Ok(())
         }
