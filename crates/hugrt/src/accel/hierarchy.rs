@@ -47,11 +47,12 @@ pub(crate) const GRID_TAG: u32 = 1 << 31;
 /// Upper bound on cells in one grid: offsets for 2^28 cells take 1 GiB.
 pub(crate) const MAX_CELLS: f64 = (1u64 << 28) as f64;
 
-/// Reference budget per grid: when bounding-box binning would store more than this many
-/// references per item (big overlapping objects, coplanar stacks), the grid's resolution is
-/// halved per axis until it fits, so memory stays `O(n)` on adversarial scenes.
+/// Reference budget per grid: when bounding-box binning would store more than
+/// `64·items + 4096` references (big overlapping objects, coplanar stacks), the grid's
+/// resolution is halved per axis until it fits, so memory stays `O(n)` on adversarial scenes:
+/// at most `64·(n + g) + 4096·g` references in all for `n` objects in `g` grids.
 pub(crate) const MAX_REFS_PER_ITEM: u64 = 64;
-pub(crate) const MIN_REF_BUDGET: u64 = 1 << 20;
+pub(crate) const MIN_REF_BUDGET: u64 = 4096;
 
 const NO_FRAME: u32 = u32::MAX;
 
@@ -219,6 +220,80 @@ impl GridHeader {
         } else {
             frames[self.frame as usize].world_box(&b)
         }
+    }
+}
+
+/// The 3D-DDA's state along one axis: the parameter of the next cell boundary ahead and how to
+/// cross it.
+#[derive(Clone, Copy)]
+struct Axis {
+    /// Parameter at which the ray meets the next plane ahead.
+    next: f32,
+    /// Plane `k` is met at `base + k·delta`: computed afresh at every step rather than
+    /// accumulated, so that rounding does not grow with the length of the walk.
+    base: f32,
+    delta: f32,
+    /// Index of the next plane ahead, the step to the one after it, and the index of the
+    /// grid's boundary plane on this side.
+    k: i32,
+    step: i32,
+    boundary: i32,
+    /// Change of the cell index when this plane is crossed.
+    jump: isize,
+}
+
+impl Axis {
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn new(
+        min: f32,
+        size: f32,
+        res: i32,
+        o: f32,
+        d: f32,
+        inv: f32,
+        cell: i32,
+        stride: isize,
+    ) -> Axis {
+        let base = (min - o) * inv;
+        let delta = size * inv;
+        let (k, step, boundary) = if d > 0.0 {
+            (cell + 1, 1, res)
+        } else if d < 0.0 {
+            (cell, -1, 0)
+        } else {
+            return Axis {
+                next: f32::INFINITY,
+                base,
+                delta,
+                k: 0,
+                step: 0,
+                boundary: 0,
+                jump: 0,
+            };
+        };
+        Axis {
+            next: base + k as f32 * delta,
+            base,
+            delta,
+            k,
+            step,
+            boundary,
+            jump: step as isize * stride,
+        }
+    }
+
+    /// Crosses the plane ahead into the next cell, moving `idx`; `false` when that plane is
+    /// the grid's boundary.
+    #[inline(always)]
+    fn cross(&mut self, idx: &mut isize) -> bool {
+        if self.k == self.boundary {
+            return false;
+        }
+        *idx += self.jump;
+        self.k += self.step;
+        self.next = self.base + self.k as f32 * self.delta;
+        true
     }
 }
 
@@ -615,43 +690,38 @@ impl GridHierarchy {
             return false;
         }
         let p = o + d * t0;
-        let (oa, da, inva) = (o.to_array(), d.to_array(), inv.to_array());
-        let mut cell = [0i32; 3];
-        let mut step = [0i32; 3];
-        let mut out = [i32::MIN; 3];
-        let mut ahead = [0i32; 3];
-        let mut base = [0f32; 3];
-        let mut delta = [0f32; 3];
-        let mut t_next = [f32::INFINITY; 3];
         let res = h.res;
         let stride = [1, res[0] as isize, res[0] as isize * res[1] as isize];
-        let mut jump = [0isize; 3];
-        for a in 0..3 {
-            cell[a] = h.coord(a, p[a]) as i32;
-            // The plane `k` of axis `a` is crossed at `base + k·delta`: computed afresh at
-            // every step rather than accumulated, so rounding does not grow with the walk.
-            base[a] = (h.min[a] - oa[a]) * inva[a];
-            delta[a] = h.size[a] * inva[a];
-            if da[a] > 0.0 {
-                (step[a], out[a], ahead[a]) = (1, res[a] as i32, 1);
-            } else if da[a] < 0.0 {
-                (step[a], out[a], ahead[a]) = (-1, -1, 0);
-            } else {
-                continue;
-            }
-            jump[a] = step[a] as isize * stride[a];
-            t_next[a] = base[a] + (cell[a] + ahead[a]) as f32 * delta[a];
-        }
+        let cell: [i32; 3] = std::array::from_fn(|a| h.coord(a, p[a]) as i32);
         let mut idx = h.first_cell as isize
             + cell[0] as isize
             + cell[1] as isize * stride[1]
             + cell[2] as isize * stride[2];
+        // Each axis's state lives in its own variables, so that a step touches registers
+        // only: indexing arrays by the axis of the step costs a store and a reload.
+        let [mut ax, mut ay, mut az] = std::array::from_fn(|a| {
+            Axis::new(
+                h.min[a],
+                h.size[a],
+                res[a] as i32,
+                o[a],
+                d[a],
+                inv[a],
+                cell[a],
+                stride[a],
+            )
+        });
+        let mut far = near.t;
         loop {
             counters.cell_visit(depth);
             let i = idx as usize;
             if self.occupied[i / 64] & (1 << (i % 64)) != 0 {
                 let (s, e) = (self.cell_start[i] as usize, self.cell_start[i + 1] as usize);
-                for &r in &self.refs[s..e] {
+                let refs = &self.refs[s..e];
+                for &r in refs {
+                    self.store.prefetch(r);
+                }
+                for &r in refs {
                     if r & GRID_TAG != 0 {
                         let sub = r & !GRID_TAG;
                         if mail.first_grid_visit(sub)
@@ -673,23 +743,30 @@ impl GridHierarchy {
                         }
                     }
                 }
+                far = near.t;
             }
-            let a = if t_next[0] < t_next[1] {
-                if t_next[0] < t_next[2] { 0 } else { 2 }
-            } else if t_next[1] < t_next[2] {
-                1
+            // The next cell is across the nearest of the three planes ahead; the walk stops
+            // when the nearest hit lies before it, or when it is the grid's boundary.
+            // (One branch per axis, rather than a reference to the chosen axis, which would
+            // put the three in memory.)
+            macro_rules! step {
+                ($axis:ident) => {
+                    if far <= $axis.next || !$axis.cross(&mut idx) {
+                        break;
+                    }
+                };
+            }
+            if ax.next < ay.next {
+                if ax.next < az.next {
+                    step!(ax)
+                } else {
+                    step!(az)
+                }
+            } else if ay.next < az.next {
+                step!(ay)
             } else {
-                2
-            };
-            if near.t <= t_next[a] {
-                break;
+                step!(az)
             }
-            cell[a] += step[a];
-            if cell[a] == out[a] {
-                break;
-            }
-            idx += jump[a];
-            t_next[a] = base[a] + (cell[a] + ahead[a]) as f32 * delta[a];
         }
         false
     }

@@ -1,0 +1,155 @@
+//! Adversarial scenes for the grid hierarchies (EG95 §1.2.2, §4.1): each is answered like
+//! brute force, and the bounds the structures promise hold, checked by counts, not timings.
+//!
+//! The promises (`accel::hierarchy`, `accel::hug`): a grid of `N` items gets at most
+//! `64·(cells asked for)` cells and at most `64·N + 4096` references (its resolution is
+//! halved until they fit); a HUG of `n` objects has at most `n / min_cluster + 1` grids, each
+//! asking for `density` (cluster) or the world factor (root) cells per item. So cells and
+//! references are `O(n)` however the objects lie, and the build is `O(n log n)`: the
+//! clustering's work is budgeted (`hug::cluster`).
+
+mod common;
+
+use common::*;
+use hugrt::accel::AnyAccel;
+use hugrt::geometry::{Shape, Vec3};
+use hugrt::scene::Scene;
+use rand::Rng;
+
+const SPECS: &[&str] = &[
+    "grid",
+    "hug",
+    "hug:min_cluster=1,loose=1e30",
+    "hug:min_cluster=1,loose=1e30,cluster=cluster3d,filter=levels",
+    "hug:cluster=graph,alpha=0,insert=fig9,min_cluster=1",
+];
+
+fn stat(a: &AnyAccel, key: &str) -> f64 {
+    a.stats()
+        .entries
+        .iter()
+        .find(|(k, _)| k == key)
+        .map_or(1.0, |e| e.1)
+}
+
+/// Builds every structure of [`SPECS`], checks the bounds above with the worst case over the
+/// HUG's settings (world factor 2.83, density 1, `min_cluster` 1), and compares with brute
+/// force on rays of every awkward kind.
+fn check(scene: &Scene, rays: usize) {
+    let n = scene.shapes.len() as f64;
+    for spec in SPECS {
+        let a = AnyAccel::build(scene, spec).unwrap_or_else(|e| panic!("{spec}: {e}"));
+        let grids = stat(&a, "grids");
+        let (cells, refs) = (stat(&a, "cells"), stat(&a, "references"));
+        assert!(grids <= n + 1.0, "{spec}: {grids} grids for {n} objects");
+        let items = n + grids;
+        assert!(
+            cells <= 64.0 * 3.0 * items + grids,
+            "{spec}: {cells} cells for {items} items"
+        );
+        assert!(
+            refs <= 64.0 * items + 4096.0 * grids,
+            "{spec}: {refs} references for {items} items in {grids} grids"
+        );
+    }
+    let specs: Vec<String> = SPECS.iter().map(|s| s.to_string()).collect();
+    assert_all_agree(scene, &specs, &rays_for(&scene.bounds(), 77, rays));
+}
+
+#[test]
+fn thousands_of_coplanar_overlapping_triangles() {
+    // EG95 §1.2.2: more than MAXP coplanar overlapping objects never separate.
+    let mut r = rng(1);
+    let shapes = (0..3000)
+        .map(|_| {
+            let p = |r: &mut rand_pcg::Pcg64Mcg| {
+                Vec3::new(r.random_range(0.0..1.0), r.random_range(0.0..1.0), 0.0)
+            };
+            Shape::Triangle([p(&mut r), p(&mut r), p(&mut r)])
+        })
+        .collect();
+    check(&scene_of(shapes), 600);
+}
+
+#[test]
+fn everything_in_one_cell() {
+    // 2000 tiny triangles in a speck, two huge ones making every grid's cells enormous.
+    let mut r = rng(2);
+    let mut shapes: Vec<Shape> = (0..2000)
+        .map(|_| {
+            let c = v3(&mut r, 0.0, 1e-3);
+            Shape::Triangle([c, c + v3(&mut r, 0.0, 1e-4), c + v3(&mut r, 0.0, 1e-4)])
+        })
+        .collect();
+    shapes.push(Shape::Triangle([
+        Vec3::new(-1e3, -1e3, 5.0),
+        Vec3::new(1e3, -1e3, 5.0),
+        Vec3::new(0.0, 1e3, 5.0),
+    ]));
+    shapes.push(Shape::Triangle([
+        Vec3::new(-1e3, 7.0, -1e3),
+        Vec3::new(1e3, 7.0, -1e3),
+        Vec3::new(0.0, 7.0, 1e3),
+    ]));
+    let s = scene_of(shapes);
+    check(&s, 400);
+    // Rays aimed at the speck.
+    let rays: Vec<_> = (0..400)
+        .map(|_| {
+            let o = v3(&mut r, -10.0, 10.0);
+            hugrt::geometry::Ray::new(o, v3(&mut r, 0.0, 1e-3) - o, 0.0, f32::INFINITY)
+        })
+        .collect();
+    let specs: Vec<String> = SPECS.iter().map(|s| s.to_string()).collect();
+    assert_all_agree(&s, &specs, &rays);
+}
+
+#[test]
+fn one_huge_object_among_many_tiny_far_apart_ones() {
+    // EG95 §4.1's failure case: clustering finds as many clusters as tiny objects. They go
+    // back to the world grid (min_cluster) rather than filling its cells with sub-grids.
+    let mut r = rng(3);
+    let mut shapes: Vec<Shape> = (0..5000)
+        .map(|_| {
+            let c = v3(&mut r, -1e3, 1e3);
+            Shape::Triangle([
+                c,
+                c + Vec3::new(0.5, 0.0, 0.0),
+                c + Vec3::new(0.0, 0.5, 0.3),
+            ])
+        })
+        .collect();
+    shapes.push(Shape::Triangle([
+        Vec3::new(-1e3, -1e3, -1e3),
+        Vec3::new(1e3, -1e3, 1e3),
+        Vec3::new(0.0, 1e3, 0.0),
+    ]));
+    let s = scene_of(shapes);
+    check(&s, 500);
+    let hug = AnyAccel::build(&s, "hug").unwrap();
+    assert_eq!(
+        stat(&hug, "grids"),
+        1.0,
+        "the singletons went back to the world"
+    );
+    assert!(stat(&hug, "references") < 8.0 * 5001.0);
+}
+
+#[test]
+fn sizes_from_ten_microns_to_a_kilometre() {
+    let mut r = rng(4);
+    let shapes = (0..3000)
+        .map(|_| {
+            let c = v3(&mut r, -500.0, 500.0);
+            let s = 10f32.powf(r.random_range(-5.0..3.0));
+            Shape::Triangle([c, c + v3(&mut r, -s, s), c + v3(&mut r, -s, s)])
+        })
+        .collect();
+    check(&scene_of(shapes), 600);
+}
+
+#[test]
+fn one_primitive_and_no_primitive() {
+    check(&triangle_soup(5, 1), 200);
+    check(&triangle_soup(5, 0), 50);
+}
