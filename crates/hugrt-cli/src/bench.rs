@@ -11,6 +11,14 @@ use hugrt::scene::Scene;
 use std::path::Path;
 use std::time::Instant;
 
+/// What `hugrt bench` measures when no scene is named: built in, so that it runs anywhere.
+const DEFAULT_SCENES: &[&str] = &[
+    "builtin:kitchen",
+    "builtin:building",
+    "builtin:stadium",
+    "builtin:room:1000000",
+];
+
 /// Median of timings (the upper one of an even count).
 pub(crate) fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
@@ -50,24 +58,7 @@ pub fn run(
 ) -> Result<()> {
     let mut scenes = scenes.to_vec();
     if scenes.is_empty() {
-        let dir = Path::new("../shared/scenes/meshes");
-        for m in [
-            "stanford-bunny",
-            "nefertiti",
-            "spd-teapot-big",
-            "spd-mount-big",
-        ] {
-            let p = dir.join(format!("{m}.ply.gz"));
-            if p.exists() {
-                scenes.push(p.display().to_string());
-            } else {
-                eprintln!(
-                    "skipping {}: not found (../shared/scenes is not beside this checkout)",
-                    p.display()
-                );
-            }
-        }
-        scenes.push("builtin:room:1000000".to_string());
+        scenes.extend(DEFAULT_SCENES.iter().map(|s| s.to_string()));
     }
     println!(
         "| scene | prims | structure | build ms 1T / 2T | B/prim | incoherent Mrays/s 1T / 2T | camera Mrays/s 1T / 2T |"

@@ -125,8 +125,8 @@ enum Command {
         output: PathBuf,
     },
     /// Measure build time, Mrays/s (1 and 2 threads, incoherent and camera rays) and bytes per
-    /// primitive for structures on scenes. Default: every mesh in ../shared/scenes/meshes that
-    /// exists plus builtin:room:1000000.
+    /// primitive for structures on scenes. Default: the built-in kitchen, building of four
+    /// kitchens, stadium and a room of a million primitives.
     Bench {
         /// Scenes (files or builtin:room[:TRIANGLES]).
         scenes: Vec<String>,

@@ -273,7 +273,14 @@ fn malformed_nff_names_file_line_and_reason() {
             "input {text:?}\n  got  {got}\n  want {want}…"
         );
     }
-    assert!(error_of("bad.nff", &[0xff, 0xfe, b's']).contains("UTF-8"));
+    assert_eq!(
+        error_of("bad.nff", &[b'#', b'\n', 0xff, 0xfe, b's']),
+        "bad.nff:2: bytes that are not UTF-8 text outside a comment"
+    );
+    // A Latin-1 comment, as files of the SPD's era have them, is no error.
+    let latin1 = b"# Caf\xe9 au lait\ns 0 0 0 1\n";
+    let s = Scene::from_bytes("cafe.nff", latin1).unwrap();
+    assert_eq!(s.shapes.len(), 1);
 }
 
 #[test]

@@ -1,5 +1,5 @@
 //! Whitted ray tracing with the NFF/SPD shading model, following the SPD test procedure
-//! (`../shared/docs/nff-format.md`): rays through pixel corners ((w+1)·(h+1) eye rays, a pixel
+//! (`docs/nff-and-spd.md`): rays through pixel corners ((w+1)·(h+1) eye rays, a pixel
 //! is the mean of its four corners), shadow rays to every light the surface faces, a reflected
 //! ray at every hit on a surface with `Ks > 0` or `T > 0`, a refracted ray by Snell's law at
 //! every hit with `T > 0` (none on total internal reflection), ray-tree depth limited to

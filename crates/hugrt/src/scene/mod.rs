@@ -61,7 +61,7 @@ pub struct Camera {
 }
 
 impl Camera {
-    /// The default view of a mesh (as `../shared/scenes/meshes` and embree-peer's `gen_rays.py`
+    /// The default view of a mesh (as the yardstick meshes and embree-peer's `gen_rays.py`
     /// use it): look at the box centre from 1.5 diagonals away along (1, 0.6, 1.4), 45°.
     pub fn framing(b: &Aabb) -> Camera {
         let c = b.center();

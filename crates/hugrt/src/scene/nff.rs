@@ -1,5 +1,5 @@
 //! NFF (Neutral File Format) of the SPD scenes, every keyword the SPD files use
-//! (`../shared/docs/nff-format.md`): `v` view block, `b`, `l`, `f`, `s`, `c`, `p`, `pp`, `#`.
+//! (`docs/nff-and-spd.md`): `v` view block, `b`, `l`, `f`, `s`, `c`, `p`, `pp`, `#`.
 
 use super::{Camera, Light, MAX_RESOLUTION, Material, Scene, SceneError, finite};
 use crate::geometry::{Cone, Shape, Sphere, Vec3, triangulate_polygon};
@@ -64,8 +64,19 @@ impl<'a> Lines<'a> {
 }
 
 pub fn parse(path: &str, data: &[u8]) -> Result<Scene, SceneError> {
-    let text = std::str::from_utf8(data)
-        .map_err(|e| SceneError::invalid(path, format!("not UTF-8 text: {e}")))?;
+    // Files of the SPD's era often carry Latin-1 in their comments: comments are read
+    // leniently, and only the data must be text.
+    let text = String::from_utf8_lossy(data);
+    if let Some((i, _)) = text.lines().enumerate().find(|(_, l)| {
+        let l = l.trim();
+        !l.starts_with('#') && l.contains(char::REPLACEMENT_CHARACTER)
+    }) {
+        return Err(SceneError::parse(
+            path,
+            i + 1,
+            "bytes that are not UTF-8 text outside a comment",
+        ));
+    }
     let mut l = Lines {
         path,
         iter: text.lines().enumerate(),

@@ -14,8 +14,9 @@ use rayon::prelude::*;
 pub enum Clustering {
     /// EG95 §2.2: `Isolate` and `Cluster3d` on the projections, δ = α·(level's mean length).
     Cluster3d { alpha: f32 },
-    /// SCG97 §7.4: connected components of the box-intersection graph.
-    Graph,
+    /// SCG97 §7.4: connected components of the box-intersection graph, boxes joined when
+    /// less than δ = α·(level's mean length) apart (α = 0: when they intersect).
+    Graph { alpha: f32 },
 }
 
 /// How many cells the world grid gets for its `N` items.
@@ -76,6 +77,8 @@ pub struct Report {
     pub given_back_small: usize,
     pub given_back_loose: usize,
     pub turned: usize,
+    /// Grids referenced by a grid that does not contain them (EG95 Fig. 9's insertion).
+    pub partial_insertions: usize,
 }
 
 /// A grid being planned: its plan and where it stands in space.
@@ -169,7 +172,9 @@ pub fn plan(store: &PrimStore, boxes: &[Aabb], s: &Settings) -> (Vec<GridPlan>, 
                 .collect();
             let clusters = match s.clustering {
                 Clustering::Cluster3d { alpha } => cluster3d(&mut items, alpha * level.mean_length),
-                Clustering::Graph => graph_components(&mut items),
+                Clustering::Graph { alpha } => {
+                    graph_components(&mut items, alpha * level.mean_length)
+                }
             };
             (items, clusters)
         })
@@ -219,7 +224,8 @@ pub fn plan(store: &PrimStore, boxes: &[Aabb], s: &Settings) -> (Vec<GridPlan>, 
             let g = grids.len() as u32;
             grids[parent].plan.children.push(g);
             if s.insertion == Insertion::Fig9 {
-                partial_insert(&mut grids, &mut marks, parent, g, &candidate.world);
+                report.partial_insertions +=
+                    partial_insert(&mut grids, &mut marks, parent, g, &candidate.world);
             }
             grids.push(candidate);
         }
@@ -257,7 +263,14 @@ pub fn plan(store: &PrimStore, boxes: &[Aabb], s: &Settings) -> (Vec<GridPlan>, 
 /// referenced by the parent's other children that it overlaps without being inside, and so on
 /// down. Grids can be reached along several paths of such references; `marks` (one stamp per
 /// grid, `g` marking the grids already done for `g`) keeps each visited once.
-fn partial_insert(grids: &mut [Planned], marks: &mut Vec<u32>, parent: usize, g: u32, b: &Aabb) {
+fn partial_insert(
+    grids: &mut [Planned],
+    marks: &mut Vec<u32>,
+    parent: usize,
+    g: u32,
+    b: &Aabb,
+) -> usize {
+    let mut inserted = 0;
     marks.resize(grids.len(), u32::MAX);
     let mut stack = vec![parent];
     while let Some(p) = stack.pop() {
@@ -270,9 +283,11 @@ fn partial_insert(grids: &mut [Planned], marks: &mut Vec<u32>, parent: usize, g:
             if grids[c].overlaps(b) && !grids[c].contains(b) {
                 grids[c].plan.children.push(g);
                 stack.push(c);
+                inserted += 1;
             }
         }
     }
+    inserted
 }
 
 /// Finds, for a box, the smallest grid planned so far that contains it: the deepest one,

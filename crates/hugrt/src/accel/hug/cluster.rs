@@ -17,7 +17,7 @@ pub struct Item {
     pub id: u32,
 }
 
-/// Work allowed per object, in objects sorted (Cluster3d) or pairs looked at (graph): EG95
+/// Work allowed per object, in objects sorted by Cluster3d: EG95
 /// reports `Σ N_i log N_i / n log n` between 3 and 5 on its scenes, far below this.
 const WORK_PER_OBJECT: usize = 32;
 
@@ -185,19 +185,38 @@ fn union(parent: &mut [u32], a: u32, b: u32) {
     }
 }
 
+/// Objects sharing a cell beyond this count are joined without testing their boxes.
+const CROWD: usize = 64;
+
 /// SCG97 §7.4: the clusters are the connected components of the graph joining objects whose
-/// (closed) boxes intersect. Found by a sweep along the axis of largest extent, confirming
-/// each pair whose intervals overlap there on the other two axes, with union-find.
+/// (closed) boxes intersect, found with union-find. With `delta > 0` the edges join boxes less
+/// than `delta` apart along every axis instead, which is EG95 Def. 2's δ-connectivity measured
+/// on the boxes themselves rather than on their projections (the distance is the largest gap
+/// along an axis; EG95 does not say which distance). The paper sweeps a plane; here the
+/// candidate pairs come from a uniform grid of about `2n` cells over the level, each box binned
+/// into the cells it meets (the resolution halved while that makes more than `8n` references,
+/// so that a few long objects do not fill the grid): only boxes sharing a cell are compared.
 ///
-/// Past a budget of `32·n` pairs looked at (piles of mutually overlapping boxes), each new
-/// object is joined to the previous one in sweep order when their intervals overlap along the
-/// sweep axis: coarser clusters, in linear time.
-pub fn graph_components(items: &mut [Item]) -> Vec<Range<usize>> {
+/// A cell holding more than 64 objects (a pile, or a dense patch of objects much smaller than
+/// the cells) joins them all without comparing them: objects crowding one cell are as good as
+/// connected for a grid, and the comparisons stay within `64·8n`.
+pub fn graph_components(items: &mut [Item], delta: f32) -> Vec<Range<usize>> {
     let n = items.len();
     if n == 0 {
         return Vec::new();
     }
-    let (lo, hi) = items.iter().fold(
+    // Boxes grown by half of δ on every side meet exactly when they were less than δ apart.
+    let h = 0.5 * delta.max(0.0);
+    let grown: Vec<Item> = items
+        .iter()
+        .map(|it| Item {
+            lo: it.lo.map(|x| x - h),
+            hi: it.hi.map(|x| x + h),
+            id: it.id,
+        })
+        .collect();
+    let boxes = &grown;
+    let (lo, hi) = boxes.iter().fold(
         ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]),
         |(lo, hi), it| {
             (
@@ -206,47 +225,89 @@ pub fn graph_components(items: &mut [Item]) -> Vec<Range<usize>> {
             )
         },
     );
-    let axis = (0..3)
-        .max_by(|&a, &b| (hi[a] - lo[a]).total_cmp(&(hi[b] - lo[b])))
-        .unwrap_or(0);
-    let (o1, o2) = ((axis + 1) % 3, (axis + 2) % 3);
-    sort_by_left_end(items, axis, &mut Scratch::default());
+    let extent = glam::Vec3::from_array(std::array::from_fn(|a| hi[a] - lo[a]));
+    let mut res = crate::accel::cubical_resolution(extent, 2.0 * n as f64);
+    let range = |res: [u32; 3], it: &Item| -> ([u32; 3], [u32; 3]) {
+        let c = |x: f32, a: usize| {
+            let e = extent[a];
+            if e <= 0.0 {
+                0
+            } else {
+                (((x - lo[a]) / e * res[a] as f32).max(0.0) as u32).min(res[a] - 1)
+            }
+        };
+        (
+            std::array::from_fn(|a| c(it.lo[a], a)),
+            std::array::from_fn(|a| c(it.hi[a], a)),
+        )
+    };
+    let refs = |res: [u32; 3]| -> u64 {
+        boxes
+            .iter()
+            .map(|it| {
+                let (l, h) = range(res, it);
+                (0..3).map(|a| (h[a] - l[a] + 1) as u64).product::<u64>()
+            })
+            .sum()
+    };
+    while refs(res) > 8 * n as u64 && res != [1, 1, 1] {
+        res = res.map(|r| (r / 2).max(1));
+    }
+    let cells = res.iter().map(|&r| r as usize).product::<usize>();
+    let each = |f: &mut dyn FnMut(usize, u32)| {
+        for (i, it) in boxes.iter().enumerate() {
+            let (l, h) = range(res, it);
+            for z in l[2]..=h[2] {
+                for y in l[1]..=h[1] {
+                    for x in l[0]..=h[0] {
+                        let c = ((z * res[1] + y) * res[0] + x) as usize;
+                        f(c, i as u32);
+                    }
+                }
+            }
+        }
+    };
+    let mut start = vec![0u32; cells + 1];
+    each(&mut |c, _| start[c + 1] += 1);
+    for c in 0..cells {
+        start[c + 1] += start[c];
+    }
+    let mut members = vec![0u32; start[cells] as usize];
+    let mut cursor = start.clone();
+    each(&mut |c, i| {
+        members[cursor[c] as usize] = i;
+        cursor[c] += 1;
+    });
     let mut parent: Vec<u32> = (0..n as u32).collect();
-    let mut active: Vec<u32> = Vec::new();
-    let mut work = 0usize;
-    let budget = WORK_PER_OBJECT * n;
-    for i in 0..n {
-        let it = items[i];
-        if work > budget {
-            if i > 0 && items[i - 1].hi[axis] >= it.lo[axis] {
-                union(&mut parent, i as u32 - 1, i as u32);
+    let touch = |a: &Item, b: &Item| (0..3).all(|k| a.lo[k] <= b.hi[k] && b.lo[k] <= a.hi[k]);
+    for c in 0..cells {
+        let m = &members[start[c] as usize..start[c + 1] as usize];
+        if m.len() > CROWD {
+            for &j in &m[1..] {
+                union(&mut parent, m[0], j);
             }
             continue;
         }
-        work += active.len();
-        active.retain(|&j| items[j as usize].hi[axis] >= it.lo[axis]);
-        for &j in &active {
-            let o = &items[j as usize];
-            if o.lo[o1] <= it.hi[o1]
-                && it.lo[o1] <= o.hi[o1]
-                && o.lo[o2] <= it.hi[o2]
-                && it.lo[o2] <= o.hi[o2]
-            {
-                union(&mut parent, j, i as u32);
+        for (k, &i) in m.iter().enumerate() {
+            for &j in &m[k + 1..] {
+                if find(&mut parent, i) != find(&mut parent, j)
+                    && touch(&boxes[i as usize], &boxes[j as usize])
+                {
+                    union(&mut parent, i, j);
+                }
             }
         }
-        active.push(i as u32);
     }
     let roots: Vec<u32> = (0..n as u32).map(|i| find(&mut parent, i)).collect();
     let mut keyed: Vec<(u32, Item)> = roots.into_iter().zip(items.iter().copied()).collect();
     keyed.sort_unstable_by_key(|&(r, _)| r);
     let mut out = Vec::new();
-    let mut start = 0;
+    let mut first = 0;
     for i in 0..n {
         items[i] = keyed[i].1;
         if i + 1 == n || keyed[i + 1].0 != keyed[i].0 {
-            out.push(start..i + 1);
-            start = i + 1;
+            out.push(first..i + 1);
+            first = i + 1;
         }
     }
     out
@@ -330,8 +391,11 @@ mod tests {
             item([2.0, 5.0, 0.0], [3.0, 6.0, 1.0], 2),
             item([20.0, 0.0, 0.0], [21.0, 1.0, 1.0], 3),
         ];
-        let c = graph_components(&mut items);
+        let c = graph_components(&mut items, 0.0);
         assert_eq!(ids(&items, &c), vec![vec![0, 1], vec![2], vec![3]]);
+        // Within δ of the L along every axis, the lone box joins it.
+        let mut near = items.clone();
+        assert_eq!(graph_components(&mut near, 4.1).len(), 2);
         let mut again = items.clone();
         assert_eq!(cluster3d(&mut again, 0.01).len(), 2);
     }
@@ -356,7 +420,7 @@ mod tests {
     fn budgets_keep_piles_of_overlaps_linear() {
         // 5000 identical boxes: every pair overlaps. Both algorithms finish with one cluster.
         let mut items: Vec<Item> = (0..5000).map(|i| cube([0.0; 3], 1.0, i)).collect();
-        assert_eq!(graph_components(&mut items).len(), 1);
+        assert_eq!(graph_components(&mut items, 0.0).len(), 1);
         assert_eq!(cluster3d(&mut items, 0.01).len(), 1);
     }
 }

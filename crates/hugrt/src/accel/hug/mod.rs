@@ -92,19 +92,18 @@ impl Hug {
         let alpha = spec.f32_in(
             "alpha",
             match d.clustering {
-                Clustering::Cluster3d { alpha } => alpha,
-                Clustering::Graph => 0.01,
+                Clustering::Cluster3d { alpha } | Clustering::Graph { alpha } => alpha,
             },
-            1e-6,
+            0.0,
             100.0,
         )?;
         let default_cluster = match d.clustering {
             Clustering::Cluster3d { .. } => "cluster3d",
-            Clustering::Graph => "graph",
+            Clustering::Graph { .. } => "graph",
         };
         let clustering = match spec.choice("cluster", &["cluster3d", "graph"], default_cluster)? {
             "cluster3d" => Clustering::Cluster3d { alpha },
-            _ => Clustering::Graph,
+            _ => Clustering::Graph { alpha },
         };
         let world = match spec.value("world") {
             None => d.world,
@@ -166,7 +165,7 @@ impl Accel for Hug {
         ),
         (
             "alpha",
-            "cluster3d: delta = alpha * the level's mean length (EG95: 0.01)",
+            "delta = alpha * the level's mean length; projections (cluster3d) or boxes (graph) closer than delta join (EG95: 0.01)",
         ),
         (
             "world",
@@ -241,6 +240,7 @@ impl Accel for Hug {
         s.push("given_back_small", self.report.given_back_small as f64);
         s.push("given_back_loose", self.report.given_back_loose as f64);
         s.push("turned_grids", self.report.turned as f64);
+        s.push("partial_insertions", self.report.partial_insertions as f64);
         s.push("grids", self.grids.grid_count() as f64);
         s.push("depth", levels.len() as f64);
         s.push("cells", self.grids.cell_count() as f64);
