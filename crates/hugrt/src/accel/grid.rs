@@ -50,6 +50,10 @@ impl Accel for Grid {
             "prune",
             "true: reference a cell only if the primitive itself touches it (default false)",
         ),
+        (
+            "simd",
+            "false: test a cell's triangles one at a time even where AVX2 is present (default true)",
+        ),
     ];
 
     fn build<P: Primitives>(prims: &P, spec: &Spec) -> Result<Self, SpecError> {
@@ -65,7 +69,7 @@ impl Accel for Grid {
             frame: None,
             depth: 0,
         };
-        let grids = GridHierarchy::build(prims, store, &[plan], prune)?;
+        let grids = GridHierarchy::build(prims, store, &[plan], prune, spec.bool("simd", true)?)?;
         Ok(Grid {
             grids,
             prims: n,

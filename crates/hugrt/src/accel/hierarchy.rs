@@ -34,6 +34,7 @@
 //! within a few times `M` of the origin; rays from much farther away should be clipped to the
 //! scene's box by the caller. The property tests (`tests/agree.rs`) fail without the margin.
 
+use super::simd;
 use super::store::{Nearest, PrimStore, finite};
 use super::{Counters, Mailbox, Primitives, SpecError};
 use crate::geometry::{Aabb, PreparedRay, Vec3};
@@ -392,6 +393,9 @@ pub(crate) struct GridHierarchy {
     frames: Vec<Frame>,
     cells: CellIndex,
     refs: Vec<u32>,
+    /// Whether cells test their triangles eight at a time ([`simd`]): the processor has AVX2,
+    /// the store's offsets fit the gathers, and the spec did not turn it off.
+    simd: bool,
 }
 
 /// What one grid bins: its objects (store entries) then its children (tagged grid indices),
@@ -454,6 +458,7 @@ impl GridHierarchy {
         store: PrimStore,
         plans: &[GridPlan],
         prune: bool,
+        simd: bool,
     ) -> Result<GridHierarchy, SpecError> {
         let scene = (0..store.len() as u32)
             .into_par_iter()
@@ -648,12 +653,14 @@ impl GridHierarchy {
         let refs: Vec<u32> = refs.into_iter().map(AtomicU32::into_inner).collect();
         let cells = CellIndex::from_offsets(&cell_start);
         drop(cell_start);
+        let simd = simd && simd::available() && store.triangles().len() * 9 < i32::MAX as usize;
         Ok(GridHierarchy {
             store,
             grids,
             frames,
             cells,
             refs,
+            simd,
         })
     }
 
@@ -791,27 +798,10 @@ impl GridHierarchy {
                 for &r in refs {
                     self.store.prefetch(r);
                 }
-                for &r in refs {
-                    if r & GRID_TAG != 0 {
-                        let sub = r & !GRID_TAG;
-                        if mail.first_grid_visit(sub)
-                            && self
-                                .walk::<P, C, ANY_HIT>(sub, prims, ray, tmin, near, mail, counters)
-                        {
-                            return true;
-                        }
-                        continue;
-                    }
-                    if !mail.first_visit(r) {
-                        continue;
-                    }
-                    counters.prim_test(depth);
-                    if let Some(t) = self.store.intersect(prims, r, ray, tmin, near.t) {
-                        counters.prim_hit(depth);
-                        if near.offer(&self.store, t, r) && ANY_HIT {
-                            return true;
-                        }
-                    }
+                if self
+                    .test_cell::<P, C, ANY_HIT>(refs, prims, ray, tmin, near, mail, counters, depth)
+                {
+                    return true;
                 }
                 far = near.t;
             }
@@ -836,6 +826,90 @@ impl GridHierarchy {
                 step!(ay)
             } else {
                 step!(az)
+            }
+        }
+        false
+    }
+
+    /// Tests the references of one cell: its objects (triangles first, eight at a time when
+    /// [`Self::simd`] allows, in store order either way), then walks the grids it references.
+    /// Returns `true` when `ANY_HIT` found a hit.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn test_cell<P: Primitives, C: Counters, const ANY_HIT: bool>(
+        &self,
+        refs: &[u32],
+        prims: &P,
+        ray: &PreparedRay,
+        tmin: f32,
+        near: &mut Nearest,
+        mail: &mut Mailbox,
+        counters: &mut C,
+        depth: usize,
+    ) -> bool {
+        let mut rest = refs;
+        #[cfg(target_arch = "x86_64")]
+        if self.simd && refs.len() >= 2 {
+            let triangles = self.store.triangles();
+            let tri_count = refs.partition_point(|&r| (r as usize) < triangles.len());
+            rest = &refs[tri_count..];
+            let mut batch = [0u32; 8];
+            let mut n = 0;
+            for (k, &r) in refs[..tri_count].iter().enumerate() {
+                if mail.first_visit(r) {
+                    batch[n] = r;
+                    n += 1;
+                }
+                if n == 8 || (k + 1 == tri_count && n > 0) {
+                    for b in n..8 {
+                        batch[b] = batch[0];
+                    }
+                    // SAFETY: `simd` is set only when AVX2 is present and `9·len` fits an
+                    // i32 (`build`); every batched index is a triangle's (below
+                    // `triangles.len()`, by the partition), the padding repeats one of them.
+                    let lanes = unsafe { simd::triangles8(triangles, &batch, ray) };
+                    let mut todo = (lanes.crossed | lanes.scalar) & ((1 << n) - 1);
+                    for _ in 0..n {
+                        counters.prim_test(depth);
+                    }
+                    while todo != 0 {
+                        let l = todo.trailing_zeros() as usize;
+                        todo &= todo - 1;
+                        let t = if lanes.scalar >> l & 1 != 0 {
+                            self.store.intersect(prims, batch[l], ray, tmin, near.t)
+                        } else {
+                            lanes.hit(l, tmin, near.t)
+                        };
+                        if let Some(t) = t {
+                            counters.prim_hit(depth);
+                            if near.offer(&self.store, t, batch[l]) && ANY_HIT {
+                                return true;
+                            }
+                        }
+                    }
+                    n = 0;
+                }
+            }
+        }
+        for &r in rest {
+            if r & GRID_TAG != 0 {
+                let sub = r & !GRID_TAG;
+                if mail.first_grid_visit(sub)
+                    && self.walk::<P, C, ANY_HIT>(sub, prims, ray, tmin, near, mail, counters)
+                {
+                    return true;
+                }
+                continue;
+            }
+            if !mail.first_visit(r) {
+                continue;
+            }
+            counters.prim_test(depth);
+            if let Some(t) = self.store.intersect(prims, r, ray, tmin, near.t) {
+                counters.prim_hit(depth);
+                if near.offer(&self.store, t, r) && ANY_HIT {
+                    return true;
+                }
             }
         }
         false

@@ -16,6 +16,7 @@ mod grid;
 mod hierarchy;
 pub mod hug;
 mod mailbox;
+mod simd;
 mod spec;
 mod store;
 

@@ -177,6 +177,11 @@ impl PrimStore {
         self.ids.is_empty()
     }
 
+    /// The triangles, store entries `0..triangle_count()`.
+    pub(crate) fn triangles(&self) -> &[[Vec3; 3]] {
+        &self.tris
+    }
+
     /// The primitive's own index (what hits report) of store entry `s`.
     #[inline(always)]
     pub fn id(&self, s: u32) -> u32 {

@@ -23,6 +23,9 @@ pub fn specs() -> Vec<String> {
             "grid:density=0.01",
             "grid:prune=true",
             "grid:density=3,prune=true",
+            // The portable path, where the others test triangles eight at a time.
+            "grid:simd=false",
+            "hug:simd=false,min_cluster=1,loose=1e30",
             // Every cluster kept as a grid, however small or loose: deep hierarchies.
             "hug:min_cluster=1,loose=1e30",
             "hug:min_cluster=1,loose=1e30,cluster=graph,insert=fig9",

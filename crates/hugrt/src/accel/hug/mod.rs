@@ -196,6 +196,10 @@ impl Accel for Hug {
             "prune",
             "true: reference a cell only if the primitive itself touches it (default false)",
         ),
+        (
+            "simd",
+            "false: test a cell's triangles one at a time even where AVX2 is present (default true)",
+        ),
     ];
 
     fn build<P: Primitives>(prims: &P, spec: &Spec) -> Result<Self, SpecError> {
@@ -210,7 +214,7 @@ impl Accel for Hug {
             .collect();
         let (plans, report) = build::plan(&store, &boxes, &settings);
         drop(boxes);
-        let grids = GridHierarchy::build(prims, store, &plans, prune)?;
+        let grids = GridHierarchy::build(prims, store, &plans, prune, spec.bool("simd", true)?)?;
         Ok(Hug {
             grids,
             report,

@@ -1,0 +1,154 @@
+//! Eight triangles against one ray at once (AVX2, chosen at run time), for the cells of the
+//! grid hierarchies, which hold a dozen triangles where a mesh crosses them.
+//!
+//! The lanes compute exactly what the scalar test ([`intersect_triangle`]) computes, operation
+//! for operation and in the same order (no fused multiply-add), so each lane's numbers are the
+//! scalar test's bits: the translated and sheared vertices, the edge functions `u, v, w`, the
+//! determinant and the scaled parameter. What depends on the running nearest hit (`tmax`) is
+//! left to the caller, who decides lane by lane in order, as the scalar loop would; lanes where
+//! an edge function is exactly zero, which the scalar test redoes in double precision, go to
+//! the scalar test. So a hit found eight at a time is the hit found one at a time.
+//!
+//! [`intersect_triangle`]: crate::geometry::intersect_triangle
+
+use crate::geometry::{PreparedRay, Vec3};
+
+/// The lanes of one batch: which passed the tests that do not depend on `tmax`, which need the
+/// scalar test, and the scaled parameter and determinant of each.
+pub struct Lanes {
+    /// Lanes whose triangle the ray crosses (signs of `u, v, w` agree, determinant finite and
+    /// not zero).
+    pub crossed: u32,
+    /// Lanes with an edge function exactly zero: the scalar test decides those.
+    pub scalar: u32,
+    pub t_scaled: [f32; 8],
+    pub det_abs: [f32; 8],
+}
+
+impl Lanes {
+    /// The scalar test's last steps for lane `k`, with the `tmax` of the moment.
+    #[inline(always)]
+    pub fn hit(&self, k: usize, tmin: f32, tmax: f32) -> Option<f32> {
+        let (ts, da) = (self.t_scaled[k], self.det_abs[k]);
+        if ts < tmin * da || ts > tmax * da {
+            return None;
+        }
+        let t = ts / da;
+        (t >= tmin && t <= tmax).then_some(t)
+    }
+}
+
+/// Whether the running processor has what [`triangles8`] needs.
+pub fn available() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx2")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// Tests the triangles `tris[idx[k]]`, `k < 8`, against `ray`.
+///
+/// # Safety
+/// The processor must support AVX2 ([`available`]), and every `idx[k]` must index `tris`, with
+/// `9 · tris.len()` below `i32::MAX` (the gathers take 32-bit offsets).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+pub unsafe fn triangles8(tris: &[[Vec3; 3]], idx: &[u32; 8], ray: &PreparedRay) -> Lanes {
+    use std::arch::x86_64::*;
+    debug_assert!(idx.iter().all(|&i| (i as usize) < tris.len()));
+    debug_assert!(tris.len() * 9 < i32::MAX as usize);
+    let base = tris.as_ptr().cast::<f32>();
+    // SAFETY: `idx` is eight u32, read unaligned.
+    let idx = unsafe { _mm256_loadu_si256(idx.as_ptr().cast()) };
+    let offs = _mm256_mullo_epi32(idx, _mm256_set1_epi32(9));
+    // (Macros rather than closures: the intrinsics must be inlined into this AVX2 function.)
+    macro_rules! load {
+        ($j:expr) => {
+            // SAFETY: lane `k` reads float `9·idx[k] + j`, `j < 9`, of a live triangle, in
+            // bounds by the contract.
+            unsafe { _mm256_i32gather_ps::<4>(base, _mm256_add_epi32(offs, _mm256_set1_epi32($j))) }
+        };
+    }
+    macro_rules! s {
+        ($x:expr) => {
+            _mm256_set1_ps($x)
+        };
+    }
+    // `r·p` as glam computes it: `(r.x·p.x + r.y·p.y) + r.z·p.z`.
+    macro_rules! dot {
+        ($r:expr, $p:expr) => {
+            _mm256_add_ps(
+                _mm256_add_ps(
+                    _mm256_mul_ps(s!($r.x), $p[0]),
+                    _mm256_mul_ps(s!($r.y), $p[1]),
+                ),
+                _mm256_mul_ps(s!($r.z), $p[2]),
+            )
+        };
+    }
+    let o = ray.ray.origin;
+    let [rx, ry, rz] = ray.rows;
+    macro_rules! vertex {
+        ($v:expr) => {
+            [
+                _mm256_sub_ps(load!(3 * $v), s!(o.x)),
+                _mm256_sub_ps(load!(3 * $v + 1), s!(o.y)),
+                _mm256_sub_ps(load!(3 * $v + 2), s!(o.z)),
+            ]
+        };
+    }
+    let (a, b, c) = (vertex!(0), vertex!(1), vertex!(2));
+    let (ax, ay) = (dot!(rx, a), dot!(ry, a));
+    let (bx, by) = (dot!(rx, b), dot!(ry, b));
+    let (cx, cy) = (dot!(rx, c), dot!(ry, c));
+    let u = _mm256_sub_ps(_mm256_mul_ps(cx, by), _mm256_mul_ps(cy, bx));
+    let v = _mm256_sub_ps(_mm256_mul_ps(ax, cy), _mm256_mul_ps(ay, cx));
+    let w = _mm256_sub_ps(_mm256_mul_ps(bx, ay), _mm256_mul_ps(by, ax));
+    let zero = _mm256_setzero_ps();
+    macro_rules! any {
+        ($cmp:ident) => {
+            _mm256_or_ps(
+                _mm256_or_ps(
+                    _mm256_cmp_ps::<$cmp>(u, zero),
+                    _mm256_cmp_ps::<$cmp>(v, zero),
+                ),
+                _mm256_cmp_ps::<$cmp>(w, zero),
+            )
+        };
+    }
+    let eq_zero = any!(_CMP_EQ_OQ);
+    let some_neg = any!(_CMP_LT_OQ);
+    let some_pos = any!(_CMP_GT_OQ);
+    let det = _mm256_add_ps(_mm256_add_ps(u, v), w);
+    let det_abs = _mm256_andnot_ps(s!(-0.0), det);
+    // The determinant is neither zero nor infinite: 0 < |det| < inf (false for NaN).
+    let det_ok = _mm256_and_ps(
+        _mm256_cmp_ps::<_CMP_LT_OQ>(det_abs, s!(f32::INFINITY)),
+        _mm256_cmp_ps::<_CMP_GT_OQ>(det_abs, zero),
+    );
+    let (az, bz, cz) = (dot!(rz, a), dot!(rz, b), dot!(rz, c));
+    let t_scaled = _mm256_add_ps(
+        _mm256_add_ps(_mm256_mul_ps(u, az), _mm256_mul_ps(v, bz)),
+        _mm256_mul_ps(w, cz),
+    );
+    // Two-sided: in the sign of the determinant, as the scalar test flips it.
+    let neg = _mm256_cmp_ps::<_CMP_LT_OQ>(det, zero);
+    let t_scaled = _mm256_xor_ps(t_scaled, _mm256_and_ps(neg, s!(-0.0)));
+    let crossed = _mm256_andnot_ps(_mm256_and_ps(some_neg, some_pos), det_ok);
+    let mut lanes = Lanes {
+        crossed: _mm256_movemask_ps(_mm256_andnot_ps(eq_zero, crossed)) as u32,
+        scalar: _mm256_movemask_ps(eq_zero) as u32,
+        t_scaled: [0.0; 8],
+        det_abs: [0.0; 8],
+    };
+    // SAFETY: both are arrays of eight f32; unaligned stores.
+    unsafe {
+        _mm256_storeu_ps(lanes.t_scaled.as_mut_ptr(), t_scaled);
+        _mm256_storeu_ps(lanes.det_abs.as_mut_ptr(), det_abs);
+    }
+    lanes
+}
