@@ -128,8 +128,8 @@ fn hug_variants_build_what_they_name() {
             .1
     };
     let room = hugrt::scene::procedural::clustered_room(20_000, 2);
-    assert!(stat(&room, "hug:min_cluster=1,loose=1e30", "depth") >= 3.0);
-    assert!(stat(&room, "hug:min_cluster=1,loose=1e30", "grids") >= 100.0);
+    assert!(stat(&room, "hug:filter=levels,min_cluster=1,loose=1e30", "depth") >= 3.0);
+    assert!(stat(&room, "hug:filter=levels,min_cluster=1,loose=1e30", "grids") >= 100.0);
     let slabs = turned_clusters(3, 2000);
     assert!(
         stat(
@@ -146,8 +146,8 @@ fn hug_variants_build_what_they_name() {
         ),
         0.0
     );
-    let fig9 = "hug:min_cluster=1,loose=1e30,cluster=graph,insert=fig9";
+    let fig9 = "hug:filter=levels,min_cluster=1,loose=1e30,cluster=graph,alpha=0,insert=fig9";
     assert!(stat(&room, fig9, "partial_insertions") >= 10.0);
-    let contained = "hug:min_cluster=1,loose=1e30,cluster=graph";
+    let contained = "hug:filter=levels,min_cluster=1,loose=1e30,cluster=graph,alpha=0";
     assert_eq!(stat(&room, contained, "partial_insertions"), 0.0);
 }

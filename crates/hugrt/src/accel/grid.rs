@@ -10,7 +10,7 @@
 //! * Traversal: the 3D-DDA of Amanatides and Woo, mailboxing, and a hit ends the walk only
 //!   once it lies inside the current cell (see [`GridHierarchy::walk`]).
 
-use super::hierarchy::{GridHierarchy, GridPlan, Resolution};
+use super::hierarchy::{GridHierarchy, GridPlan, Prune, Resolution};
 use super::{Accel, Counters, Hit, PrimStore, Primitives, Spec, SpecError, StructureStats};
 use crate::geometry::Ray;
 
@@ -26,7 +26,7 @@ pub struct Grid {
     grids: GridHierarchy,
     prims: usize,
     density: f32,
-    prune: bool,
+    prune: Prune,
 }
 
 /// Fails for scenes too large for 32-bit references (one bit marks sub-grids).
@@ -48,7 +48,7 @@ impl Accel for Grid {
         ),
         (
             "prune",
-            "true: reference a cell only if the primitive itself touches it (default false)",
+            "true: reference a cell only if the primitive itself touches it; large: only for objects whose box spans 16 cells or more (default false)",
         ),
         (
             "simd",
@@ -58,7 +58,7 @@ impl Accel for Grid {
 
     fn build<P: Primitives>(prims: &P, spec: &Spec) -> Result<Self, SpecError> {
         let density = spec.f32_in("density", DEFAULT_DENSITY, 0.001, 1000.0)?;
-        let prune = spec.bool("prune", false)?;
+        let prune = Prune::from_spec(spec, Prune::None)?;
         let n = prims.len();
         check_size(n)?;
         let store = PrimStore::build(prims);
@@ -97,7 +97,14 @@ impl Accel for Grid {
         let res = self.grids.resolution(0);
         let mut s = StructureStats::default();
         s.push("density", self.density as f64);
-        s.push("prune", self.prune as u8 as f64);
+        s.push(
+            "prune",
+            match self.prune {
+                Prune::None => 0.0,
+                Prune::All => 1.0,
+                Prune::Large => Prune::LARGE as f64,
+            },
+        );
         s.push("res_x", res[0] as f64);
         s.push("res_y", res[1] as f64);
         s.push("res_z", res[2] as f64);

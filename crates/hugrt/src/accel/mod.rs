@@ -17,6 +17,7 @@ mod hierarchy;
 pub mod hug;
 mod mailbox;
 mod simd;
+mod sort;
 mod spec;
 mod store;
 

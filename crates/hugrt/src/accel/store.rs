@@ -20,6 +20,7 @@
 //! a hit found through the store is bit for bit the hit brute force finds.
 
 use super::hierarchy::Frame;
+use super::sort::radix_sort_high32;
 use super::{PrimitiveKind, Primitives};
 use crate::geometry::{Aabb, Cone, PreparedRay, Sphere, Vec3, intersect_triangle};
 use rayon::prelude::*;
@@ -62,41 +63,6 @@ fn morton(p: Vec3, b: &Aabb) -> u32 {
         }
     };
     spread3(scale(0)) | spread3(scale(1)) << 1 | spread3(scale(2)) << 2
-}
-
-/// Sorts by the upper 32 bits, least significant digit first (11, 11 and 10 bits): three
-/// linear passes, where a comparison sort of millions of keys takes several times longer.
-pub(crate) fn radix_sort_high32(v: &mut Vec<u64>) {
-    let mut tmp = vec![0u64; v.len()];
-    for (shift, bits) in [(32, 11), (43, 11), (54, 10)] {
-        let mask = (1u64 << bits) - 1;
-        let mut count = vec![0usize; (1 << bits) + 1];
-        for &x in v.iter() {
-            count[((x >> shift) & mask) as usize + 1] += 1;
-        }
-        for d in 0..1 << bits {
-            count[d + 1] += count[d];
-        }
-        for &x in v.iter() {
-            let d = ((x >> shift) & mask) as usize;
-            tmp[count[d]] = x;
-            count[d] += 1;
-        }
-        std::mem::swap(v, &mut tmp);
-    }
-}
-
-/// Sorts store indices ascending: radix passes for long lists, a comparison sort for short.
-pub(crate) fn sort_indices(v: &mut [u32]) {
-    if v.len() < 4096 {
-        v.sort_unstable();
-        return;
-    }
-    let mut wide: Vec<u64> = v.iter().map(|&x| (x as u64) << 32).collect();
-    radix_sort_high32(&mut wide);
-    for (o, w) in v.iter_mut().zip(&wide) {
-        *o = (w >> 32) as u32;
-    }
 }
 
 impl PrimStore {
@@ -347,20 +313,5 @@ mod tests {
         assert!(morton(Vec3::new(0.0, 1.0, 0.0), &b) < morton(Vec3::new(0.0, 0.0, 1.0), &b));
         assert_eq!(morton(Vec3::ONE, &b), (1 << 30) - 1);
         assert_eq!(morton(Vec3::splat(7.0), &b), (1 << 30) - 1, "clamped");
-    }
-
-    #[test]
-    fn radix_sort_orders_by_the_high_half() {
-        let mut v: Vec<u64> = (0..5000u64)
-            .map(|i| (i.wrapping_mul(2654435761) % 100_000) << 32 | i)
-            .collect();
-        let mut want = v.clone();
-        want.sort_by_key(|&x| x >> 32);
-        radix_sort_high32(&mut v);
-        assert!(v.windows(2).all(|w| w[0] >> 32 <= w[1] >> 32));
-        want.sort();
-        let mut got = v.clone();
-        got.sort();
-        assert_eq!(got, want);
     }
 }

@@ -23,17 +23,19 @@ pub fn specs() -> Vec<String> {
             "grid:density=0.01",
             "grid:prune=true",
             "grid:density=3,prune=true",
+            // Every cluster kept as a grid, however small or loose: deep hierarchies.
+            "hug:filter=levels,min_cluster=1,loose=1e30",
+            "hug:filter=levels,min_cluster=1,loose=1e30,cluster=graph,alpha=0,insert=fig9",
+            "hug:filter=levels,min_cluster=2,loose=1e30,levels=6,world=sqrt2,density=4",
+            "hug:min_cluster=1,loose=1e30,filter=two,fraction=0.3,pca=true",
+            "hug:filter=levels,min_cluster=1,loose=1e30,levels=4,hetero=true,prune=true",
+            "hug:min_cluster=3,loose=0.5,pca=true,hetero=true,cluster=cluster3d,alpha=0.5",
+            // EG95 as published, and SCG97's improvements.
+            "hug:filter=levels,cluster=cluster3d,alpha=0.01,world=2n,density=1,prune=false",
+            "hug:filter=two,cluster=cluster3d,alpha=0.01,world=sqrt2,density=1,prune=false",
             // The portable path, where the others test triangles eight at a time.
             "grid:simd=false",
-            "hug:simd=false,min_cluster=1,loose=1e30",
-            // Every cluster kept as a grid, however small or loose: deep hierarchies.
-            "hug:min_cluster=1,loose=1e30",
-            "hug:min_cluster=1,loose=1e30,cluster=graph,insert=fig9",
-            "hug:min_cluster=2,loose=1e30,levels=6,world=sqrt2,density=4",
-            "hug:min_cluster=1,loose=1e30,filter=two,fraction=0.3,pca=true",
-            "hug:min_cluster=1,loose=1e30,levels=4,hetero=true,prune=true",
-            "hug:min_cluster=3,loose=0.5,pca=true,hetero=true,alpha=0.5",
-            "hug:filter=two,cluster=graph,world=sqrt2",
+            "hug:simd=false,filter=levels,min_cluster=1,loose=1e30",
         ]
         .map(String::from),
     );

@@ -6,7 +6,7 @@
 //! would make an algorithm quadratic, a work budget stops the refinement and keeps coarser
 //! clusters, and the build stays `O(n log n)`.
 
-use crate::accel::store::radix_sort_high32;
+use crate::accel::sort::radix_sort_high32;
 use std::ops::Range;
 
 /// An object as clustering sees it: its box and an index the caller gives it.

@@ -34,17 +34,17 @@ pub use build::{Clustering, Insertion, Settings, WorldCells};
 pub use filter::Filter;
 
 use super::grid::check_size;
-use super::hierarchy::GridHierarchy;
+use super::hierarchy::{GridHierarchy, Prune};
 use super::{Accel, Counters, Hit, PrimStore, Primitives, Spec, SpecError, StructureStats};
 use crate::geometry::{Aabb, Ray};
 use rayon::prelude::*;
 
 /// The defaults of `hug` with no keys.
 pub const DEFAULTS: Settings = Settings {
-    filter: Filter::Levels(3),
-    clustering: Clustering::Cluster3d { alpha: 0.01 },
-    world: WorldCells::TwoN,
-    density: 1.0,
+    filter: Filter::Two(0.05),
+    clustering: Clustering::Graph { alpha: 0.5 },
+    world: WorldCells::Density(8.0),
+    density: 2.0,
     min_cluster: 16,
     loose: 0.25,
     pca: false,
@@ -56,7 +56,7 @@ pub struct Hug {
     grids: GridHierarchy,
     report: build::Report,
     prims: usize,
-    prune: bool,
+    prune: Prune,
 }
 
 impl Hug {
@@ -194,7 +194,7 @@ impl Accel for Hug {
         ),
         (
             "prune",
-            "true: reference a cell only if the primitive itself touches it (default false)",
+            "true: reference a cell only if the primitive itself touches it; large: only for objects whose box spans 16 cells or more (default large)",
         ),
         (
             "simd",
@@ -204,7 +204,7 @@ impl Accel for Hug {
 
     fn build<P: Primitives>(prims: &P, spec: &Spec) -> Result<Self, SpecError> {
         let settings = Hug::settings(spec)?;
-        let prune = spec.bool("prune", false)?;
+        let prune = Prune::from_spec(spec, Prune::Large)?;
         let n = prims.len();
         check_size(n)?;
         let store = PrimStore::build(prims);
@@ -250,7 +250,14 @@ impl Accel for Hug {
         s.push("cells", self.grids.cell_count() as f64);
         s.push("references", self.grids.reference_count() as f64);
         s.push("sum_pct_vol", levels.iter().map(|l| l.pct_vol).sum::<f64>());
-        s.push("prune", self.prune as u8 as f64);
+        s.push(
+            "prune",
+            match self.prune {
+                Prune::None => 0.0,
+                Prune::All => 1.0,
+                Prune::Large => Prune::LARGE as f64,
+            },
+        );
         s.push("memory_bytes", self.memory_bytes() as f64);
         s.push(
             "structure_bytes_per_primitive",
