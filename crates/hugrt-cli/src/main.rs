@@ -13,8 +13,7 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::path::PathBuf;
 use std::time::Instant;
 
-const ACCEL_HELP: &str =
-    "Spatial structure: NAME[:KEY=VALUE,...], e.g. grid, grid:density=20,prune=true, brute";
+const ACCEL_HELP: &str = "Spatial structure: NAME[:KEY=VALUE,...], e.g. hug, hug:filter=levels,world=2n, grid:density=20, brute";
 
 #[derive(Parser)]
 #[command(
@@ -31,16 +30,16 @@ struct Cli {
 enum Command {
     /// Render a scene Whitted-style following the SPD test procedure, and report ray counts.
     ///
-    /// With no SCENE, renders the built-in clustered room (a large sparse room with dense
-    /// clusters of small objects). SCENE is an .nff, .ply or .obj file (optionally .gz), or
-    /// builtin:room[:TRIANGLES].
+    /// With no SCENE, renders the built-in kitchen (EG95's case: a room with dense clusters of
+    /// small tessellated objects). SCENE is an .nff, .ply or .obj file (optionally .gz),
+    /// builtin:room[:TRIANGLES] or builtin:KIND[:SIZE] (see `hugrt gen`).
     Render {
-        /// Scene file (default: the built-in clustered room).
+        /// Scene file (default: the built-in kitchen).
         scene: Option<String>,
         /// Output PNG.
         #[arg(short, long, default_value = "hugrt.png")]
         output: PathBuf,
-        #[arg(long, default_value = "grid", help = ACCEL_HELP)]
+        #[arg(long, default_value = "hug", help = ACCEL_HELP)]
         accel: String,
         /// Image width (default: the scene's resolution).
         #[arg(long)]
@@ -69,7 +68,7 @@ enum Command {
     /// Rays: little-endian f32 records `ox oy oz tmin dx dy dz tmax` (32 bytes). Hits: per ray
     /// f32 t (+inf on a miss) then u32 primitive index (0xFFFFFFFF on a miss).
     Trace {
-        /// Scene file (.nff, .ply, .obj, optionally .gz) or builtin:room[:TRIANGLES].
+        /// Scene file (.nff, .ply, .obj, optionally .gz), builtin:room[:TRIANGLES] or builtin:KIND[:SIZE].
         scene: String,
         /// Rays to trace (32-byte records, no header).
         #[arg(long)]
@@ -77,7 +76,7 @@ enum Command {
         /// Where to write the hits (8-byte records, one per ray, in ray order).
         #[arg(long)]
         hits: PathBuf,
-        #[arg(long, default_value = "grid", help = ACCEL_HELP)]
+        #[arg(long, default_value = "hug", help = ACCEL_HELP)]
         accel: String,
         /// Occlusion queries: t = 1.0 and index 0 when anything is hit.
         #[arg(long)]
@@ -95,9 +94,9 @@ enum Command {
     },
     /// Scene statistics (SCG97 Fig. 4) and the structure's own (cells, references, memory).
     Stats {
-        /// Scene file (.nff, .ply, .obj, optionally .gz) or builtin:room[:TRIANGLES].
+        /// Scene file (.nff, .ply, .obj, optionally .gz), builtin:room[:TRIANGLES] or builtin:KIND[:SIZE].
         scene: String,
-        #[arg(long, default_value = "grid", help = ACCEL_HELP)]
+        #[arg(long, default_value = "hug", help = ACCEL_HELP)]
         accel: String,
         /// Print JSON instead of text.
         #[arg(long)]
@@ -128,10 +127,10 @@ enum Command {
     /// primitive for structures on scenes. Default: the built-in kitchen, building of four
     /// kitchens, stadium and a room of a million primitives.
     Bench {
-        /// Scenes (files or builtin:room[:TRIANGLES]).
+        /// Scenes (files, builtin:room[:TRIANGLES] or builtin:KIND[:SIZE]).
         scenes: Vec<String>,
         /// Structures to measure (repeatable).
-        #[arg(long = "accel", default_value = "grid", help = ACCEL_HELP)]
+        #[arg(long = "accel", default_value = "hug", help = ACCEL_HELP)]
         accels: Vec<String>,
         /// Incoherent rays per measurement.
         #[arg(long, default_value_t = 1_000_000)]
@@ -203,7 +202,7 @@ fn run(cli: Cli) -> Result<()> {
             counters,
             quiet,
         } => {
-            let name = scene.unwrap_or_else(|| "builtin:room".to_string());
+            let name = scene.unwrap_or_else(|| "builtin:kitchen".to_string());
             pool(threads)?.install(|| {
                 let t = Instant::now();
                 let scene = load_scene(&name)?;

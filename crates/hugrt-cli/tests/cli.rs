@@ -181,6 +181,19 @@ fn stats_json_reports_scene_and_structure() {
     let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(j["scene_stats"]["objects"], 13);
     assert!(j["structure"]["bytes_per_primitive"].as_f64().unwrap() > 0.0);
+    // The default structure is the HUG, with SCG97 §3's statistics per level.
+    assert_eq!(j["accel"], "hug");
+    assert_eq!(j["levels"][0]["pct_vol"], 100.0);
+    let total: f64 = (0..j["levels"].as_array().unwrap().len())
+        .map(|l| j["levels"][l]["pct_obj"].as_f64().unwrap())
+        .sum();
+    assert!((total - 100.0).abs() < 1e-9, "{total}");
+    let o = hugrt(&["stats", "builtin:kitchen:1"]);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        text.contains("per level") && text.contains("σo'_v"),
+        "{text}"
+    );
 }
 
 #[test]

@@ -8,7 +8,12 @@ use hugrt::batch;
 use hugrt::scene::procedural::clustered_room;
 use std::hint::black_box;
 
-const SPECS: &[&str] = &["grid", "grid:density=1", "grid:density=16"];
+const SPECS: &[&str] = &[
+    "grid",
+    "grid:density=16",
+    "hug",
+    "hug:filter=levels,cluster=cluster3d,alpha=0.01,world=2n,density=1,prune=false",
+];
 
 fn build(c: &mut Criterion) {
     let scene = clustered_room(100_000, 1);
