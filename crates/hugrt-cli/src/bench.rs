@@ -1,18 +1,15 @@
-//! `hugrt bench`: build time, throughput and memory of structures, as ratios are quoted in the
-//! README and closing notes. Timings are medians of `repeat` runs, every figure of a table
-//! measured in the same process, one right after the other.
+//! `hugrt bench`: every structure on every scene, on the same work, through
+//! [`hugrt::bench`]; a Markdown table on stdout, JSON and CSV on request, and an error when
+//! a structure's answers differ from the first one's.
 
 use crate::load_scene;
-use anyhow::Result;
-use hugrt::accel::AnyAccel;
-use hugrt::batch::{camera_rays, incoherent_rays, trace};
-use hugrt::geometry::Ray;
-use hugrt::scene::Scene;
-use std::path::Path;
-use std::time::Instant;
+use anyhow::{Context, Result, bail};
+use hugrt::bench::{BenchRow, Candidate, Workload, bench_scene};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use std::path::{Path, PathBuf};
 
 /// What `hugrt bench` measures when no scene is named: built in, so that it runs anywhere.
-const DEFAULT_SCENES: &[&str] = &[
+pub const DEFAULT_SCENES: &[&str] = &[
     "builtin:kitchen",
     "builtin:building",
     "builtin:stadium",
@@ -25,80 +22,223 @@ pub(crate) fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
-fn pool(n: usize) -> Result<rayon::ThreadPool> {
-    Ok(rayon::ThreadPoolBuilder::new().num_threads(n).build()?)
+pub struct Options {
+    pub scenes: Vec<String>,
+    pub accels: Vec<String>,
+    pub workload: Workload,
+    pub repeat: usize,
+    pub json: Option<PathBuf>,
+    pub csv: Option<PathBuf>,
+    pub quiet: bool,
 }
 
-fn mrays(
-    scene: &Scene,
-    accel: &AnyAccel,
-    rays: &[Ray],
-    threads: usize,
-    repeat: usize,
-) -> Result<f64> {
-    let p = pool(threads)?;
-    let secs: Vec<f64> = (0..repeat)
-        .map(|_| {
-            p.install(|| {
-                let t = Instant::now();
-                std::hint::black_box(trace(scene, accel, rays, false));
-                t.elapsed().as_secs_f64()
-            })
+fn short(name: &str) -> String {
+    Path::new(name)
+        .file_name()
+        .map_or(name.to_string(), |f| f.to_string_lossy().into_owned())
+}
+
+/// Runs the benchmark on the current rayon pool.
+pub fn run(o: Options) -> Result<()> {
+    let scenes = if o.scenes.is_empty() {
+        DEFAULT_SCENES.iter().map(|s| s.to_string()).collect()
+    } else {
+        o.scenes
+    };
+    let bar = ProgressBar::new((scenes.len() * o.accels.len()) as u64);
+    bar.set_draw_target(if o.quiet {
+        ProgressDrawTarget::hidden()
+    } else {
+        ProgressDrawTarget::stderr()
+    });
+    bar.set_style(
+        ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} {msg}")?
+            .progress_chars("=> "),
+    );
+    let mut rows: Vec<BenchRow> = Vec::new();
+    for name in &scenes {
+        bar.set_message(format!("{} (loading)", short(name)));
+        let scene = load_scene(name)?;
+        let candidates: Vec<Candidate> = o
+            .accels
+            .iter()
+            .map(|a| Candidate::spec(&scene, a))
+            .collect();
+        bar.set_message(format!("{} {}", short(name), o.accels[0]));
+        let mut next = 1;
+        let done = &mut |_: &BenchRow| {
+            bar.inc(1);
+            if let Some(a) = o.accels.get(next) {
+                bar.set_message(format!("{} {a}", short(name)));
+            }
+            next += 1;
+        };
+        let r = bench_scene(
+            &short(name),
+            &scene,
+            &candidates,
+            o.workload,
+            o.repeat,
+            done,
+        )
+        .with_context(|| format!("benchmarking {name}"))?;
+        rows.extend(r);
+    }
+    bar.finish_and_clear();
+    print_table(&rows);
+    if let Some(path) = &o.json {
+        std::fs::write(path, serde_json::to_string_pretty(&rows)? + "\n")
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
+    if let Some(path) = &o.csv {
+        write_csv(path, &rows).with_context(|| format!("writing {}", path.display()))?;
+    }
+    let wrong: Vec<String> = rows
+        .iter()
+        .filter(|r| r.differences > 0)
+        .map(|r| {
+            format!(
+                "{} on {}: {} {} differ",
+                r.structure, r.scene, r.differences, r.compared
+            )
         })
         .collect();
-    Ok(rays.len() as f64 / median(secs) / 1e6)
+    if !wrong.is_empty() {
+        bail!(
+            "structures disagree with the first structure of their scene ({}); every structure must give the same answers",
+            wrong.join("; ")
+        );
+    }
+    Ok(())
 }
 
-pub fn run(
-    scenes: &[String],
-    accels: &[String],
-    n_rays: usize,
-    cam: u32,
-    repeat: usize,
-) -> Result<()> {
-    let mut scenes = scenes.to_vec();
-    if scenes.is_empty() {
-        scenes.extend(DEFAULT_SCENES.iter().map(|s| s.to_string()));
-    }
+fn print_table(rows: &[BenchRow]) {
     println!(
-        "| scene | prims | structure | build ms 1T / 2T | B/prim | incoherent Mrays/s 1T / 2T | camera Mrays/s 1T / 2T |"
+        "| scene | prims | structure | build ms (min–max) | trace ms (min–max) | Mrays/s | B/prim | N_C | R_ETNC | N_ADC | N_AOIFC | R_FVWV | N_RPRT | N_AT | T_TT/T_TR | #pit #pi #bbi #vt per ray | differ |"
     );
-    println!("| --- | --- | --- | --- | --- | --- | --- |");
-    for name in &scenes {
-        let scene = load_scene(name)?;
-        let b = scene.bounds();
-        let inc = incoherent_rays(&b, n_rays, 1);
-        let camr = camera_rays(&b, cam, cam);
-        for spec in accels {
-            let mut build_ms = [0.0; 2];
-            let mut accel = None;
-            for (k, threads) in [1, 2].into_iter().enumerate() {
-                let p = pool(threads)?;
-                let mut times = Vec::new();
-                for _ in 0..repeat {
-                    let t = Instant::now();
-                    let a = p.install(|| AnyAccel::build(&scene, spec))?;
-                    times.push(t.elapsed().as_secs_f64() * 1e3);
-                    accel = Some(a);
-                }
-                build_ms[k] = median(times);
+    println!(
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"
+    );
+    for r in rows {
+        let s = &r.septet;
+        let c = &r.per_ray;
+        println!(
+            "| {} | {} | {} | {:.1} ({:.1}–{:.1}) | {:.1} ({:.1}–{:.1}) | {:.2} | {:.1} | {} | {:.3} | {:.2} | {:.2} | {:.3} | {:.2} | {:.2} | {} | {:.2} {:.3} {:.2} {:.2} | {} {} |",
+            r.scene,
+            r.primitives,
+            r.structure,
+            r.build.median_ms,
+            r.build.min_ms,
+            r.build.max_ms,
+            r.trace.median_ms,
+            r.trace.min_ms,
+            r.trace.max_ms,
+            r.mrays_per_s,
+            r.bytes_per_primitive,
+            s.n_c,
+            s.r_etnc,
+            s.n_adc,
+            s.n_aoifc,
+            s.r_fvwv,
+            s.n_rprt,
+            s.n_at,
+            r.triplet
+                .t_tt_over_t_tr
+                .map_or("—".to_string(), |x| format!("{x:.2}")),
+            c.pit,
+            c.pi,
+            c.bbi,
+            c.vt,
+            r.differences,
+            r.compared,
+        );
+    }
+    let deep: Vec<&BenchRow> = rows.iter().filter(|r| r.per_ray_levels.len() > 1).collect();
+    if !deep.is_empty() {
+        println!();
+        println!("| scene | structure | level | #pit | #pi | #bbi | #vt |");
+        println!("| --- | --- | --- | --- | --- | --- | --- |");
+        for r in deep {
+            for (l, c) in r.per_ray_levels.iter().enumerate() {
+                println!(
+                    "| {} | {} | {l} | {:.2} | {:.3} | {:.2} | {:.2} |",
+                    r.scene, r.structure, c.pit, c.pi, c.bbi, c.vt
+                );
             }
-            let accel = accel.expect("repeat >= 1");
-            let bpp = accel.memory_bytes() as f64 / scene.shapes.len().max(1) as f64;
-            let i1 = mrays(&scene, &accel, &inc, 1, repeat)?;
-            let i2 = mrays(&scene, &accel, &inc, 2, repeat)?;
-            let c1 = mrays(&scene, &accel, &camr, 1, repeat)?;
-            let c2 = mrays(&scene, &accel, &camr, 2, repeat)?;
-            let short = Path::new(name)
-                .file_name()
-                .map_or(name.clone(), |f| f.to_string_lossy().into_owned());
-            println!(
-                "| {short} | {} | {spec} | {:.0} / {:.0} | {bpp:.1} | {i1:.2} / {i2:.2} | {c1:.2} / {c2:.2} |",
-                scene.shapes.len(),
-                build_ms[0],
-                build_ms[1]
-            );
         }
     }
+}
+
+/// One CSV record per row: the table's columns, flat, with the per-level counters left to
+/// the JSON.
+#[derive(serde::Serialize)]
+struct CsvRow<'a> {
+    scene: &'a str,
+    primitives: usize,
+    structure: &'a str,
+    rays: u64,
+    hits: u64,
+    build_ms: f64,
+    build_min_ms: f64,
+    build_max_ms: f64,
+    trace_ms: f64,
+    trace_min_ms: f64,
+    trace_max_ms: f64,
+    mrays_per_s: f64,
+    memory_bytes: usize,
+    bytes_per_primitive: f64,
+    n_c: usize,
+    r_etnc: f64,
+    n_adc: f64,
+    n_aoifc: f64,
+    r_fvwv: f64,
+    n_rprt: f64,
+    n_tac: u64,
+    n_at: f64,
+    t_tt_over_t_tr: Option<f64>,
+    pit_per_ray: f64,
+    pi_per_ray: f64,
+    bbi_per_ray: f64,
+    vt_per_ray: f64,
+    differences: u64,
+    compared: &'a str,
+}
+
+fn write_csv(path: &Path, rows: &[BenchRow]) -> Result<()> {
+    let mut w = csv::Writer::from_path(path)?;
+    for r in rows {
+        w.serialize(CsvRow {
+            scene: &r.scene,
+            primitives: r.primitives,
+            structure: &r.structure,
+            rays: r.rays,
+            hits: r.hits,
+            build_ms: r.build.median_ms,
+            build_min_ms: r.build.min_ms,
+            build_max_ms: r.build.max_ms,
+            trace_ms: r.trace.median_ms,
+            trace_min_ms: r.trace.min_ms,
+            trace_max_ms: r.trace.max_ms,
+            mrays_per_s: r.mrays_per_s,
+            memory_bytes: r.memory_bytes,
+            bytes_per_primitive: r.bytes_per_primitive,
+            n_c: r.septet.n_c,
+            r_etnc: r.septet.r_etnc,
+            n_adc: r.septet.n_adc,
+            n_aoifc: r.septet.n_aoifc,
+            r_fvwv: r.septet.r_fvwv,
+            n_rprt: r.septet.n_rprt,
+            n_tac: r.septet.n_tac,
+            n_at: r.septet.n_at,
+            t_tt_over_t_tr: r.triplet.t_tt_over_t_tr,
+            pit_per_ray: r.per_ray.pit,
+            pi_per_ray: r.per_ray.pi,
+            bbi_per_ray: r.per_ray.bbi,
+            vt_per_ray: r.per_ray.vt,
+            differences: r.differences,
+            compared: r.compared,
+        })?;
+    }
+    w.flush()?;
     Ok(())
 }

@@ -7,7 +7,8 @@ mod report;
 use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
 use hugrt::accel::{AnyAccel, STRUCTURES};
-use hugrt::render::{RenderSettings, render};
+use hugrt::bench::Workload;
+use hugrt::render::{RenderSettings, SoftShadows, render, render_soft};
 use hugrt::scene::Scene;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::path::PathBuf;
@@ -59,6 +60,10 @@ enum Command {
         /// Also count ray-primitive tests, ray-box tests and cells visited per level (slower).
         #[arg(long)]
         counters: bool,
+        /// Single-sample soft shadows (Parker, Shirley, Smits) from spherical lights of this
+        /// radius, as a fraction of the scene's diagonal (0.002 when given without a value).
+        #[arg(long, value_name = "RADIUS", num_args = 0..=1, default_missing_value = DEFAULT_RADIUS)]
+        soft_shadows: Option<f32>,
         /// No progress bar.
         #[arg(short, long)]
         quiet: bool,
@@ -123,32 +128,102 @@ enum Command {
         #[arg(short, long)]
         output: PathBuf,
     },
-    /// Measure build time, Mrays/s (1 and 2 threads, incoherent and camera rays) and bytes per
-    /// primitive for structures on scenes. Default: the built-in kitchen, building of four
-    /// kitchens, stadium and a room of a million primitives.
+    /// Measure structures on the same work: build and trace times with their spread, Mrays/s,
+    /// memory, Havran's septet and triplet, the papers' counters per ray and level, and whether
+    /// every structure gives the first one's answers (an error when not).
+    ///
+    /// With no scene: the built-in kitchen, building of four kitchens, stadium and a room of a
+    /// million primitives. `--rays whitted` renders each scene's image with every structure and
+    /// compares the pixels; `camera` and `incoherent` compare the hits ray by ray.
     Bench {
         /// Scenes (files, builtin:room[:TRIANGLES] or builtin:KIND[:SIZE]).
         scenes: Vec<String>,
-        /// Structures to measure (repeatable).
+        /// Structures to measure (repeatable; the first is the reference for the answers).
         #[arg(long = "accel", default_value = "hug", help = ACCEL_HELP)]
         accels: Vec<String>,
-        /// Incoherent rays per measurement.
+        /// The work: the SPD Whitted rendering, camera rays or incoherent rays.
+        #[arg(long, value_enum, default_value_t = RayKind::Whitted)]
+        rays: RayKind,
+        /// Incoherent rays per run.
         #[arg(long, default_value_t = 1_000_000)]
-        rays: usize,
-        /// Camera image side (side² rays).
+        ray_count: usize,
+        /// Camera rays: image side (side² rays).
         #[arg(long, default_value_t = 1024)]
         camera: u32,
-        /// Repetitions per figure (the median is reported).
+        /// Whitted: image width (default: the scene's resolution).
+        #[arg(long)]
+        width: Option<u32>,
+        /// Whitted: image height (default: the scene's resolution).
+        #[arg(long)]
+        height: Option<u32>,
+        /// Whitted: bounces after the eye ray (SPD: 4).
+        #[arg(long, default_value_t = 4)]
+        depth: u32,
+        /// Whitted: soft shadows with this light radius (fraction of the scene's diagonal).
+        #[arg(long, value_name = "RADIUS", num_args = 0..=1, default_missing_value = DEFAULT_RADIUS)]
+        soft_shadows: Option<f32>,
+        /// Worker threads (default: all cores).
+        #[arg(long)]
+        threads: Option<usize>,
+        /// Runs per timing (the median is reported, with the extremes).
         #[arg(long, default_value_t = 3)]
         repeat: usize,
+        /// Write the rows, per-level counters included, as JSON.
+        #[arg(long)]
+        json: Option<PathBuf>,
+        /// Write the rows as CSV.
+        #[arg(long)]
+        csv: Option<PathBuf>,
+        /// No progress bar.
+        #[arg(short, long)]
+        quiet: bool,
     },
 }
 
+/// The work `hugrt bench` measures.
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+enum RayKind {
+    Camera,
+    Incoherent,
+    Whitted,
+}
+
+/// `--soft-shadows` given without a value ([`hugrt::render::DEFAULT_LIGHT_RADIUS`]).
+const DEFAULT_RADIUS: &str = "0.002";
+
 fn main() {
+    quiet_on_broken_pipe();
     if let Err(e) = run(Cli::parse()) {
         eprintln!("hugrt: error: {e:#}");
         std::process::exit(1);
     }
+}
+
+fn check_radius(r: f32) -> Result<()> {
+    if !(r.is_finite() && r >= 0.0) {
+        bail!(
+            "--soft-shadows {r}: the light radius must be a finite fraction of the diagonal, 0 or more"
+        );
+    }
+    Ok(())
+}
+
+/// `hugrt stats ... | head` closes the pipe early; `println!` then panics. Leave quietly, as
+/// command-line tools do on a broken pipe, and keep every other panic's message.
+fn quiet_on_broken_pipe() {
+    let default = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let message = info
+            .payload()
+            .downcast_ref::<String>()
+            .map(String::as_str)
+            .or_else(|| info.payload().downcast_ref::<&str>().copied())
+            .unwrap_or("");
+        if message.starts_with("failed printing to stdout") && message.contains("Broken pipe") {
+            std::process::exit(0);
+        }
+        default(info);
+    }));
 }
 
 /// Prints the papers' counters per ray and per hierarchy level.
@@ -200,6 +275,7 @@ fn run(cli: Cli) -> Result<()> {
             threads,
             stats_json,
             counters,
+            soft_shadows,
             quiet,
         } => {
             let name = scene.unwrap_or_else(|| "builtin:kitchen".to_string());
@@ -207,7 +283,17 @@ fn run(cli: Cli) -> Result<()> {
                 let t = Instant::now();
                 let scene = load_scene(&name)?;
                 let load_s = t.elapsed().as_secs_f64();
-                let (acc, build_s) = build(&scene, &accel)?;
+                let (acc, mut build_s) = build(&scene, &accel)?;
+                let soft = match soft_shadows {
+                    Some(r) => {
+                        check_radius(r)?;
+                        let t = Instant::now();
+                        let s = SoftShadows::build(&scene, &accel, r)?;
+                        build_s += t.elapsed().as_secs_f64();
+                        Some(s)
+                    }
+                    None => None,
+                };
                 let settings = RenderSettings {
                     width: width.unwrap_or(scene.camera.width),
                     height: height.unwrap_or(scene.camera.height),
@@ -221,15 +307,18 @@ fn run(cli: Cli) -> Result<()> {
                 bar.set_draw_target(if quiet { ProgressDrawTarget::hidden() } else { ProgressDrawTarget::stderr() });
                 bar.set_style(ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} rows {eta}")?.progress_chars("=> "));
                 let t = Instant::now();
-                let out = render(&scene, &acc, &settings, &|n| bar.inc(n));
+                let out = match &soft {
+                    Some(s) => render_soft(&scene, &acc, s, &settings, &|n| bar.inc(n)),
+                    None => render(&scene, &acc, &settings, &|n| bar.inc(n)),
+                };
                 let render_s = t.elapsed().as_secs_f64();
                 bar.finish_and_clear();
                 out.image.save(&output).with_context(|| format!("writing {}", output.display()))?;
                 let c = out.counts;
                 println!("scene {name}: {} primitives, {} lights; structure {} ({})", scene.shapes.len(), scene.lights.len(), acc.name(), accel);
                 println!("load {load_s:.3} s, build {build_s:.3} s, render {render_s:.3} s ({:.2} Mrays/s)", c.total_rays() as f64 / render_s / 1e6);
-                println!("eye rays {} (hit {}), shadow rays {} (blocked {}), reflected {}, refracted {}, secondary hits {}",
-                    c.eye_rays, c.eye_hits, c.shadow_rays, c.shadow_hits, c.reflected_rays, c.refracted_rays, c.secondary_hits);
+                println!("eye rays {} (hit {}), shadow rays {} (blocked {}, in a penumbra {}), reflected {}, refracted {}, secondary hits {}",
+                    c.eye_rays, c.eye_hits, c.shadow_rays, c.shadow_hits, c.penumbra_rays, c.reflected_rays, c.refracted_rays, c.secondary_hits);
                 println!("wrote {}", output.display());
                 if let Some(k) = &out.counters {
                     print_counters(k, c.total_rays());
@@ -245,7 +334,8 @@ fn run(cli: Cli) -> Result<()> {
                     o.insert("load_seconds".into(), load_s.into());
                     o.insert("build_seconds".into(), build_s.into());
                     o.insert("render_seconds".into(), render_s.into());
-                    o.insert("accel_memory_bytes".into(), acc.memory_bytes().into());
+                    o.insert("accel_memory_bytes".into(), (acc.memory_bytes() + soft.as_ref().map_or(0, |s| s.memory_bytes())).into());
+                    o.insert("soft_shadow_radius".into(), soft.as_ref().map(|s| s.radius()).into());
                     if let Some(k) = out.counters {
                         o.insert("counters_per_level".into(), serde_json::to_value(k.used_levels())?);
                     }
@@ -363,8 +453,17 @@ fn run(cli: Cli) -> Result<()> {
             scenes,
             accels,
             rays,
+            ray_count,
             camera,
+            width,
+            height,
+            depth,
+            soft_shadows,
+            threads,
             repeat,
+            json,
+            csv,
+            quiet,
         } => {
             if accels.is_empty() {
                 bail!(
@@ -372,7 +471,41 @@ fn run(cli: Cli) -> Result<()> {
                     STRUCTURES.join(", ")
                 );
             }
-            bench::run(&scenes, &accels, rays, camera, repeat.max(1))
+            if let Some(r) = soft_shadows {
+                check_radius(r)?;
+            }
+            let workload = match rays {
+                RayKind::Camera => Workload::Camera { side: camera },
+                RayKind::Incoherent => Workload::Incoherent { rays: ray_count },
+                RayKind::Whitted => Workload::Whitted {
+                    width,
+                    height,
+                    depth,
+                    soft_shadows,
+                },
+            };
+            pool(threads)?.install(|| {
+                bench::run(bench::Options {
+                    scenes,
+                    accels,
+                    workload,
+                    repeat: repeat.max(1),
+                    json,
+                    csv,
+                    quiet,
+                })
+            })
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn soft_shadows_default_is_the_library_default() {
+        assert_eq!(
+            super::DEFAULT_RADIUS.parse::<f32>().unwrap(),
+            hugrt::render::DEFAULT_LIGHT_RADIUS
+        );
     }
 }

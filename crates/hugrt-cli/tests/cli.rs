@@ -237,3 +237,113 @@ fn gen_writes_nff_and_ply_that_load_back() {
         stderr(&o)
     );
 }
+
+/// `bench` on a tiny scene: the table's header and one row per structure on stdout, the same
+/// rows in JSON and CSV, every structure agreeing, and soft shadows accepted.
+#[test]
+fn bench_prints_a_row_per_structure_and_writes_json_and_csv() {
+    let dir = tempfile::tempdir().unwrap();
+    let json = dir.path().join("b.json");
+    let csv = dir.path().join("b.csv");
+    let specs = ["grid", "hug", "hug:filter=levels,world=2n"];
+    for rays in ["whitted", "camera", "incoherent"] {
+        let mut args = vec![
+            "bench",
+            "builtin:room:2000",
+            "--rays",
+            rays,
+            "--repeat",
+            "2",
+            "--camera",
+            "16",
+            "--ray-count",
+            "500",
+            "--width",
+            "24",
+            "--height",
+            "16",
+            "--soft-shadows",
+            "--threads",
+            "2",
+            "--quiet",
+            "--json",
+            json.to_str().unwrap(),
+            "--csv",
+            csv.to_str().unwrap(),
+        ];
+        for s in specs {
+            args.extend(["--accel", s]);
+        }
+        let o = hugrt(&args);
+        assert!(o.status.success(), "{rays}: {}", stderr(&o));
+        let out = String::from_utf8_lossy(&o.stdout);
+        let header = out.lines().next().unwrap();
+        for column in [
+            "build ms",
+            "Mrays/s",
+            "N_C",
+            "R_ETNC",
+            "N_ADC",
+            "N_AOIFC",
+            "R_FVWV",
+            "N_RPRT",
+            "N_AT",
+            "T_TT/T_TR",
+            "differ",
+        ] {
+            assert!(
+                header.contains(column),
+                "{rays}: no column {column} in {header}"
+            );
+        }
+        for s in specs {
+            let row = out
+                .lines()
+                .find(|l| {
+                    l.starts_with("| builtin:room:2000 | ") && l.contains(&format!(" | {s} | "))
+                })
+                .unwrap_or_else(|| panic!("{rays}: no row for {s} in\n{out}"));
+            assert!(
+                row.ends_with(if rays == "whitted" {
+                    "| 0 pixels |"
+                } else {
+                    "| 0 rays |"
+                }),
+                "{row}"
+            );
+        }
+        let rows: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        let rows = rows.as_array().unwrap();
+        assert_eq!(rows.len(), specs.len());
+        for (r, s) in rows.iter().zip(specs) {
+            assert_eq!(r["structure"], s);
+            assert!(r["septet"]["n_c"].as_u64().unwrap() > 0);
+            assert!(
+                r["per_ray_levels"]
+                    .as_array()
+                    .is_some_and(|l| !l.is_empty())
+            );
+        }
+        let text = std::fs::read_to_string(&csv).unwrap();
+        let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(lines.len(), 1 + specs.len(), "{text}");
+        assert!(lines[0].starts_with("scene,primitives,structure,"));
+        // The spec with a comma is quoted, not split.
+        assert!(
+            lines[3].contains("\"hug:filter=levels,world=2n\""),
+            "{}",
+            lines[3]
+        );
+    }
+}
+
+#[test]
+fn bench_rejects_a_bad_light_radius_and_unknown_structure() {
+    let o = hugrt(&["bench", "builtin:room:500", "--soft-shadows=-1", "--quiet"]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("light radius"), "{}", stderr(&o));
+    let o = hugrt(&["bench", "builtin:room:500", "--accel", "octopus", "--quiet"]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("octopus"), "{}", stderr(&o));
+}

@@ -4,7 +4,9 @@
 mod common;
 
 use hugrt::accel::AnyAccel;
-use hugrt::render::{RenderSettings, Rendered, render};
+use hugrt::render::{
+    RenderSettings, Rendered, SoftShadows, render, render_recorded, render_replayed, render_soft,
+};
 use hugrt::scene::{Scene, procedural::clustered_room};
 
 fn fixture() -> Scene {
@@ -84,4 +86,85 @@ fn image_does_not_depend_on_thread_count() {
         one.image == three.image,
         "images differ between 1 and 3 threads"
     );
+}
+
+fn draw_soft(scene: &Scene, spec: &str, radius: f32, width: u32, height: u32) -> Rendered {
+    let accel = AnyAccel::build(scene, spec).unwrap();
+    let soft = SoftShadows::build(scene, spec, radius).unwrap();
+    let settings = RenderSettings {
+        width,
+        height,
+        depth: 4,
+        counters: false,
+    };
+    render_soft(scene, &accel, &soft, &settings, &|_| {})
+}
+
+/// Soft shadows give brute force's image with every structure. Brute force tests every
+/// primitive whatever its box, so a structure whose boxes did not reach as far as the
+/// fringes would lose penumbrae here.
+#[test]
+fn soft_shadows_render_identically_with_every_structure() {
+    for (what, scene, w, h, radius) in [
+        ("features.nff", fixture(), 48, 32, 0.1),
+        ("room", clustered_room(3000, 5), 64, 40, 0.05),
+    ] {
+        let reference = draw_soft(&scene, "brute", radius, w, h);
+        let hard = draw(&scene, "brute", w, h);
+        assert!(
+            reference.counts.penumbra_rays > 0,
+            "{what}: no shadow ray in a penumbra"
+        );
+        let softened = reference
+            .image
+            .pixels()
+            .zip(hard.image.pixels())
+            .filter(|(a, b)| a != b)
+            .count();
+        assert!(softened > 0, "{what}: soft and hard shadows look the same");
+        for spec in common::specs() {
+            let r = draw_soft(&scene, &spec, radius, w, h);
+            assert_eq!(
+                r.counts, reference.counts,
+                "{what}: counts differ for {spec}"
+            );
+            let differing = r
+                .image
+                .pixels()
+                .zip(reference.image.pixels())
+                .filter(|(a, b)| a != b)
+                .count();
+            assert_eq!(differing, 0, "{what}: {differing} pixels differ for {spec}");
+        }
+    }
+}
+
+/// A light of radius 0 casts hard shadows.
+#[test]
+fn soft_shadows_of_a_point_light_are_hard() {
+    let s = fixture();
+    let hard = draw(&s, "grid", 48, 32);
+    let soft = draw_soft(&s, "grid", 0.0, 48, 32);
+    assert_eq!(soft.counts, hard.counts);
+    assert!(soft.image == hard.image);
+}
+
+/// Rendering again from a recording of the structure's answers gives the same image: what
+/// `bench` subtracts to find the time spent in the structure is the same rendering.
+#[test]
+fn replayed_rendering_is_the_same_image() {
+    let s = clustered_room(3000, 6);
+    let accel = AnyAccel::build(&s, "hug").unwrap();
+    let settings = RenderSettings {
+        width: 48,
+        height: 32,
+        depth: 4,
+        counters: false,
+    };
+    let (recorded, recording) = render_recorded(&s, &accel, None, &settings);
+    let replayed = render_replayed(&s, &recording, &settings);
+    assert!(recording.queries() as u64 >= recorded.counts.total_rays());
+    assert_eq!(replayed.counts, recorded.counts);
+    assert!(replayed.image == recorded.image);
+    assert!(replayed.image == draw(&s, "hug", 48, 32).image);
 }

@@ -1,11 +1,13 @@
 //! Brute force: every primitive is tested against every ray. The reference every other
 //! structure is checked against, so it is kept as plain as possible.
 
-use super::{Accel, Counters, Hit, Primitives, Spec, SpecError, StructureStats};
-use crate::geometry::{PreparedRay, Ray};
+use super::{Accel, CellCensus, Counters, Hit, Primitives, Spec, SpecError, StructureStats};
+use crate::geometry::{Aabb, PreparedRay, Ray};
 
 pub struct Brute {
     len: usize,
+    /// Volume of the primitives' bounding box: brute force's one cell.
+    volume: f64,
 }
 
 impl Accel for Brute {
@@ -13,7 +15,12 @@ impl Accel for Brute {
     const KEYS: &'static [(&'static str, &'static str)] = &[];
 
     fn build<P: Primitives>(prims: &P, _spec: &Spec) -> Result<Self, SpecError> {
-        Ok(Brute { len: prims.len() })
+        let b = (0..prims.len()).fold(Aabb::EMPTY, |b, i| b.union(&prims.bounds(i)));
+        let volume = if b.is_empty() { 0.0 } else { b.volume() as f64 };
+        Ok(Brute {
+            len: prims.len(),
+            volume,
+        })
     }
 
     fn query<P: Primitives, C: Counters, const ANY_HIT: bool>(
@@ -47,6 +54,12 @@ impl Accel for Brute {
     fn stats(&self) -> StructureStats {
         let mut s = StructureStats::default();
         s.push("primitives", self.len as f64);
+        s.census = CellCensus {
+            cells: 1,
+            full_cells: (self.len > 0) as usize,
+            object_refs: self.len,
+            full_volume: self.volume,
+        };
         s
     }
 }

@@ -124,6 +124,7 @@ impl Accel for Grid {
             "bytes_per_primitive",
             self.memory_bytes() as f64 / self.prims.max(1) as f64,
         );
+        s.census = self.grids.census();
         s.levels = levels;
         s
     }

@@ -37,7 +37,7 @@
 use super::simd;
 use super::sort::radix_sort_high32;
 use super::store::{Nearest, PrimStore, finite};
-use super::{Counters, Mailbox, Primitives, SpecError};
+use super::{CellCensus, Counters, Mailbox, Primitives, SpecError};
 use crate::geometry::{Aabb, PreparedRay, Vec3};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -941,6 +941,31 @@ impl GridHierarchy {
     /// Bytes of the whole structure: grids and store.
     pub fn memory_bytes(&self) -> usize {
         self.grid_memory_bytes() + self.store.memory_bytes()
+    }
+
+    /// The static half of Havran's septet over every grid of the hierarchy. A cell counts as
+    /// full when it holds an object reference; a cell holding only sub-grids counts as empty,
+    /// its objects being counted in the sub-grids' cells.
+    pub fn census(&self) -> CellCensus {
+        let mut c = CellCensus::default();
+        for h in &self.grids {
+            c.cells += h.cells();
+            let cell_volume = volume(h) / h.cells().max(1) as f64;
+            let first = h.first_cell as usize;
+            for cell in first..first + h.cells() {
+                let refs = self
+                    .cells
+                    .range(cell)
+                    .map_or(&[][..], |(s, e)| &self.refs[s..e]);
+                let objects = refs.iter().filter(|&&r| r & GRID_TAG == 0).count();
+                if objects > 0 {
+                    c.full_cells += 1;
+                    c.object_refs += objects;
+                    c.full_volume += cell_volume;
+                }
+            }
+        }
+        c
     }
 
     /// The statistics of SCG97 §3 for each level of the hierarchy (level 0 = the root).

@@ -86,12 +86,30 @@ impl Hit {
 }
 
 /// Statistics a structure reports about itself (`hugrt stats`): named numbers, in the order
-/// the structure finds meaningful, and for grid hierarchies the statistics of each level
-/// (SCG97 §3).
+/// the structure finds meaningful, its cells for Havran's septet, and for grid hierarchies the
+/// statistics of each level (SCG97 §3).
 #[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct StructureStats {
     pub entries: Vec<(String, f64)>,
+    pub census: CellCensus,
     pub levels: Vec<GridLevelStats>,
+}
+
+/// What a structure's cells hold: the static half of Havran's septet (Havran §4.1, Table 2),
+/// from which [`crate::bench`] derives `N_C`, `R_ETNC`, `N_ADC`, `N_AOIFC` and `R_FVWV`.
+/// Cells are the elementary cells of every grid, or a tree's nodes; brute force is one cell
+/// holding everything.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct CellCensus {
+    /// `N_C`.
+    pub cells: usize,
+    /// Cells holding at least one object reference (`N_C − N_EC`).
+    pub full_cells: usize,
+    /// `N_RO`: object references from all cells.
+    pub object_refs: usize,
+    /// `V_SCENE − V_EMPTY`: summed volume of the full cells (cells of nested grids can lie in
+    /// full cells of their parents and then count twice).
+    pub full_volume: f64,
 }
 
 impl StructureStats {

@@ -10,10 +10,17 @@
 //! two-sided: the normal is turned to face the incoming ray (the SPD teapot must be
 //! double-sided; other scenes do not show their back faces). Transmitters cast full shadows.
 //!
+//! Shadows are hard by default; [`render_soft`] softens them with one shadow ray per light
+//! ([`soft`]).
+//!
 //! The image does not depend on the number of threads: every corner is computed on its own
 //! and counts are sums of integers.
 
-use crate::accel::{AnyAccel, Counters, NoCounters, RayCounters};
+mod soft;
+
+pub use soft::{DEFAULT_LIGHT_RADIUS, SoftShadows};
+
+use crate::accel::{AnyAccel, Counters, Hit, NoCounters, RayCounters};
 use crate::geometry::{PreparedRay, Ray, Vec3};
 use crate::scene::Scene;
 use rayon::prelude::*;
@@ -37,6 +44,8 @@ pub struct RayCounts {
     pub shadow_rays: u64,
     /// Shadow rays that were blocked.
     pub shadow_hits: u64,
+    /// Soft shadow rays that were dimmed but not blocked (in a penumbra).
+    pub penumbra_rays: u64,
     pub reflected_rays: u64,
     pub refracted_rays: u64,
     /// Reflected and refracted rays that hit something.
@@ -49,6 +58,7 @@ impl RayCounts {
         self.eye_hits += o.eye_hits;
         self.shadow_rays += o.shadow_rays;
         self.shadow_hits += o.shadow_hits;
+        self.penumbra_rays += o.penumbra_rays;
         self.reflected_rays += o.reflected_rays;
         self.refracted_rays += o.refracted_rays;
         self.secondary_hits += o.secondary_hits;
@@ -74,50 +84,231 @@ pub fn render(
     settings: &RenderSettings,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Rendered {
-    if settings.counters {
-        let (image, counts, c) = render_with::<RayCounters>(scene, accel, settings, progress);
-        Rendered {
-            image,
-            counts,
-            counters: Some(c),
-        }
+    render_impl(scene, accel, None, settings, progress)
+}
+
+/// Renders `scene` through `accel` with soft shadows answered by `soft` (built for the same
+/// scene).
+pub fn render_soft(
+    scene: &Scene,
+    accel: &AnyAccel,
+    soft: &SoftShadows,
+    settings: &RenderSettings,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Rendered {
+    render_impl(scene, accel, Some(soft), settings, progress)
+}
+
+fn render_impl(
+    scene: &Scene,
+    accel: &AnyAccel,
+    soft: Option<&SoftShadows>,
+    settings: &RenderSettings,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Rendered {
+    let live = |_| Live { accel, soft };
+    let (rendered, _) = if settings.counters {
+        render_with::<RayCounters, _>(scene, settings, &live, progress)
     } else {
-        let (image, counts, _) = render_with::<NoCounters>(scene, accel, settings, progress);
-        Rendered {
-            image,
-            counts,
-            counters: None,
-        }
+        render_with::<NoCounters, _>(scene, settings, &live, progress)
+    };
+    rendered
+}
+
+/// Every answer a structure gave during one rendering, in the order the renderer asked:
+/// enough to render the same image again without the structure ([`render_replayed`]).
+pub struct Recording {
+    rows: Vec<Answers>,
+}
+
+impl Recording {
+    /// Queries answered.
+    pub fn queries(&self) -> usize {
+        self.rows.iter().map(|r| r.hits.len() + r.light.len()).sum()
     }
+}
+
+#[derive(Default)]
+struct Answers {
+    hits: Vec<Option<Hit>>,
+    light: Vec<f32>,
+}
+
+/// Renders as [`render`] (or [`render_soft`] with `soft`) and records every answer of the
+/// structures. Not for timing: recording costs a store per query.
+pub fn render_recorded(
+    scene: &Scene,
+    accel: &AnyAccel,
+    soft: Option<&SoftShadows>,
+    settings: &RenderSettings,
+) -> (Rendered, Recording) {
+    let record = |_| Recorder {
+        live: Live { accel, soft },
+        answers: Answers::default(),
+    };
+    let (rendered, rows) = if settings.counters {
+        render_with::<RayCounters, _>(scene, settings, &record, &|_| {})
+    } else {
+        render_with::<NoCounters, _>(scene, settings, &record, &|_| {})
+    };
+    let rows = rows.into_iter().map(|r| r.answers).collect();
+    (rendered, Recording { rows })
+}
+
+/// Renders again from a [`Recording`] made with the same scene and settings, every query
+/// answered from the record: everything a rendering does except asking the structure. Its
+/// time, subtracted from the rendering's, is the time spent in the structure (Havran's
+/// `T_TT`, see [`crate::bench`]).
+///
+/// # Panics
+/// When the recording was made with other settings or another scene (it runs out).
+pub fn render_replayed(
+    scene: &Scene,
+    recording: &Recording,
+    settings: &RenderSettings,
+) -> Rendered {
+    let replay = |j: usize| Replay {
+        answers: &recording.rows[j],
+        next_hit: 0,
+        next_light: 0,
+    };
+    let settings = RenderSettings {
+        counters: false,
+        ..*settings
+    };
+    render_with::<NoCounters, _>(scene, &settings, &replay, &|_| {}).0
 }
 
 trait Summable: Counters + Default + Send + Copy {
     fn sum(&mut self, o: &Self);
+    fn into_option(self) -> Option<RayCounters>;
 }
 impl Summable for NoCounters {
     fn sum(&mut self, _: &Self) {}
+    fn into_option(self) -> Option<RayCounters> {
+        None
+    }
 }
 impl Summable for RayCounters {
     fn sum(&mut self, o: &Self) {
         self.add(o)
     }
+    fn into_option(self) -> Option<RayCounters> {
+        Some(self)
+    }
 }
 
-struct Tracer<'a, C> {
-    scene: &'a Scene,
+/// Where a rendering's queries go: the structures, the structures with a record kept, or a
+/// record.
+trait Queries: Send {
+    fn closest<C: Counters>(&mut self, scene: &Scene, ray: &Ray, counters: &mut C) -> Option<Hit>;
+    /// Light reaching `from` from a light at `from + to_light`, 0 to 1.
+    fn light<C: Counters>(
+        &mut self,
+        scene: &Scene,
+        from: Vec3,
+        to_light: Vec3,
+        counters: &mut C,
+    ) -> f32;
+}
+
+struct Live<'a> {
     accel: &'a AnyAccel,
+    soft: Option<&'a SoftShadows>,
+}
+
+impl Queries for Live<'_> {
+    #[inline]
+    fn closest<C: Counters>(&mut self, scene: &Scene, ray: &Ray, counters: &mut C) -> Option<Hit> {
+        self.accel.closest_hit(scene, ray, counters)
+    }
+
+    #[inline]
+    fn light<C: Counters>(
+        &mut self,
+        scene: &Scene,
+        from: Vec3,
+        to_light: Vec3,
+        counters: &mut C,
+    ) -> f32 {
+        match self.soft {
+            None => {
+                let shadow = Ray::new(from, to_light, 0.0, 1.0);
+                if self.accel.any_hit(scene, &shadow, counters).is_some() {
+                    0.0
+                } else {
+                    1.0
+                }
+            }
+            Some(soft) => soft.visibility(scene, from, to_light, counters),
+        }
+    }
+}
+
+struct Recorder<'a> {
+    live: Live<'a>,
+    answers: Answers,
+}
+
+impl Queries for Recorder<'_> {
+    fn closest<C: Counters>(&mut self, scene: &Scene, ray: &Ray, counters: &mut C) -> Option<Hit> {
+        let h = self.live.closest(scene, ray, counters);
+        self.answers.hits.push(h);
+        h
+    }
+
+    fn light<C: Counters>(
+        &mut self,
+        scene: &Scene,
+        from: Vec3,
+        to_light: Vec3,
+        counters: &mut C,
+    ) -> f32 {
+        let v = self.live.light(scene, from, to_light, counters);
+        self.answers.light.push(v);
+        v
+    }
+}
+
+struct Replay<'a> {
+    answers: &'a Answers,
+    next_hit: usize,
+    next_light: usize,
+}
+
+impl Queries for Replay<'_> {
+    #[inline]
+    fn closest<C: Counters>(&mut self, _: &Scene, _: &Ray, _: &mut C) -> Option<Hit> {
+        let h = self.answers.hits[self.next_hit];
+        self.next_hit += 1;
+        h
+    }
+
+    #[inline]
+    fn light<C: Counters>(&mut self, _: &Scene, _: Vec3, _: Vec3, _: &mut C) -> f32 {
+        let v = self.answers.light[self.next_light];
+        self.next_light += 1;
+        v
+    }
+}
+
+struct Tracer<'a, C, Q> {
+    scene: &'a Scene,
+    queries: Q,
     max_depth: u32,
     offset_scale: f32,
     counts: RayCounts,
     counters: C,
 }
 
-fn render_with<C: Summable>(
+/// The rendering itself; `queries(j)` makes the query source of corner row `j`, and the
+/// sources come back with the image, row by row.
+fn render_with<C: Summable, Q: Queries>(
     scene: &Scene,
-    accel: &AnyAccel,
     s: &RenderSettings,
+    queries: &(dyn Fn(usize) -> Q + Sync),
     progress: &(dyn Fn(u64) + Sync),
-) -> (image::RgbImage, RayCounts, C) {
+) -> (Rendered, Vec<Q>) {
     let (w, h) = (s.width.max(1), s.height.max(1));
     let cam = &scene.camera;
     let dir = (cam.at - cam.from).normalize();
@@ -131,12 +322,12 @@ fn render_with<C: Summable>(
     } else {
         1e-5 * b.diagonal().max(1e-6)
     };
-    let rows: Vec<(Vec<Vec3>, RayCounts, C)> = (0..=h)
+    let rows: Vec<(Vec<Vec3>, RayCounts, C, Q)> = (0..=h)
         .into_par_iter()
         .map(|j| {
             let mut t = Tracer {
                 scene,
-                accel,
+                queries: queries(j as usize),
                 max_depth: s.depth + 1,
                 offset_scale,
                 counts: RayCounts::default(),
@@ -152,27 +343,32 @@ fn render_with<C: Summable>(
                 })
                 .collect();
             progress(1);
-            (row, t.counts, t.counters)
+            (row, t.counts, t.counters, t.queries)
         })
         .collect();
     let mut counts = RayCounts::default();
     let mut counters = C::default();
-    for (_, c, k) in &rows {
+    for (_, c, k, _) in &rows {
         counts.add(c);
         counters.sum(k);
     }
-    let img = image::RgbImage::from_fn(w, h, |x, y| {
+    let image = image::RgbImage::from_fn(w, h, |x, y| {
         let (x, y) = (x as usize, y as usize);
         let c = (rows[y].0[x] + rows[y].0[x + 1] + rows[y + 1].0[x] + rows[y + 1].0[x + 1]) * 0.25;
         let q = |v: f32| (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8;
         image::Rgb([q(c.x), q(c.y), q(c.z)])
     });
-    (img, counts, counters)
+    let rendered = Rendered {
+        image,
+        counts,
+        counters: counters.into_option(),
+    };
+    (rendered, rows.into_iter().map(|r| r.3).collect())
 }
 
-impl<C: Counters> Tracer<'_, C> {
+impl<C: Counters, Q: Queries> Tracer<'_, C, Q> {
     fn trace(&mut self, ray: &Ray, depth: u32) -> Vec3 {
-        let Some(hit) = self.accel.closest_hit(self.scene, ray, &mut self.counters) else {
+        let Some(hit) = self.queries.closest(self.scene, ray, &mut self.counters) else {
             return self.scene.background;
         };
         if depth == 1 {
@@ -200,22 +396,24 @@ impl<C: Counters> Tracer<'_, C> {
                 continue;
             }
             self.counts.shadow_rays += 1;
-            let shadow = Ray::new(above, to_light, 0.0, 1.0);
-            if self
-                .accel
-                .any_hit(self.scene, &shadow, &mut self.counters)
-                .is_some()
-            {
+            let visibility = self
+                .queries
+                .light(self.scene, above, to_light, &mut self.counters);
+            if visibility <= 0.0 {
                 self.counts.shadow_hits += 1;
                 continue;
             }
+            if visibility < 1.0 {
+                self.counts.penumbra_rays += 1;
+            }
+            let light_color = light.color * visibility;
             let l = to_light.normalize();
-            color += m.color * light.color * (m.kd * ns.dot(l));
+            color += m.color * light_color * (m.kd * ns.dot(l));
             if m.ks > 0.0 && m.shine > 0.0 {
                 let r = (2.0 * ns.dot(l)) * ns - l;
                 let rv = r.dot(-d);
                 if rv > 0.0 {
-                    color += light.color * (m.ks * rv.powf(m.shine));
+                    color += light_color * (m.ks * rv.powf(m.shine));
                 }
             }
         }

@@ -327,6 +327,7 @@ impl Accel for Hug {
             "bytes_per_primitive",
             self.memory_bytes() as f64 / self.prims.max(1) as f64,
         );
+        s.census = self.grids.census();
         s.levels = levels;
         s
     }
