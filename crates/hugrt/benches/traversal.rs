@@ -13,6 +13,7 @@ const SPECS: &[&str] = &[
     "grid:density=16",
     "hug",
     "hug:filter=levels,cluster=cluster3d,alpha=0.01,world=2n,density=1,prune=false",
+    "bvh",
 ];
 
 fn build(c: &mut Criterion) {

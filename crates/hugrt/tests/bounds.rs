@@ -1,5 +1,6 @@
-//! Adversarial scenes for the grid hierarchies (EG95 §1.2.2, §4.1): each is answered like
-//! brute force, and the bounds the structures promise hold, checked by counts, not timings.
+//! Adversarial scenes for the grid hierarchies (EG95 §1.2.2, §4.1) and the trees: each is
+//! answered like brute force, and the bounds the structures promise hold, checked by counts,
+//! not timings.
 //!
 //! The promises (`accel::hierarchy`, `accel::hug`): a grid of `N` items gets at most
 //! `64·(cells asked for)` cells and at most `64·N + 4096` references (its resolution is
@@ -23,6 +24,8 @@ const SPECS: &[&str] = &[
     "hug:min_cluster=1,loose=1e30,cluster=cluster3d,alpha=0.01,filter=levels",
     "hug:cluster=graph,alpha=0,insert=fig9,min_cluster=1,filter=levels",
 ];
+
+const TREES: &[&str] = &["bvh", "bvh:leaf=1", "bvh:leaf=16,bins=2,traversal=0"];
 
 fn stat(a: &AnyAccel, key: &str) -> f64 {
     a.stats()
@@ -52,7 +55,29 @@ fn check(scene: &Scene, rays: usize) {
             "{spec}: {refs} references for {items} items in {grids} grids"
         );
     }
-    let specs: Vec<String> = SPECS.iter().map(|s| s.to_string()).collect();
+    // The bvh: every object in exactly one leaf, fewer nodes than leaves, and a depth of at
+    // most `MEDIAN_DEPTH (48) + log2(n) + 1` (splits turn to the object median at depth 48).
+    for spec in TREES {
+        let a = AnyAccel::build(scene, spec).unwrap_or_else(|e| panic!("{spec}: {e}"));
+        let (nodes, leaves) = (stat(&a, "nodes"), stat(&a, "leaves"));
+        assert!(
+            nodes <= leaves.max(1.0),
+            "{spec}: {nodes} nodes for {leaves} leaves"
+        );
+        assert!(
+            leaves <= n.max(1.0),
+            "{spec}: {leaves} leaves for {n} objects"
+        );
+        let depth = stat(&a, "max_depth");
+        assert!(
+            depth <= 49.0 + n.max(1.0).log2(),
+            "{spec}: depth {depth} for {n} objects"
+        );
+        if n > 0.0 {
+            assert_eq!(stat(&a, "references_per_object"), 1.0, "{spec}");
+        }
+    }
+    let specs: Vec<String> = SPECS.iter().chain(TREES).map(|s| s.to_string()).collect();
     assert_all_agree(scene, &specs, &rays_for(&scene.bounds(), 77, rays));
 }
 

@@ -11,6 +11,7 @@
 //! one module and one line there.
 
 mod brute;
+mod bvh;
 mod counters;
 mod grid;
 mod hierarchy;
@@ -22,6 +23,7 @@ mod spec;
 mod store;
 
 pub use brute::Brute;
+pub use bvh::Bvh;
 pub use counters::{Counters, LevelCounts, MAX_LEVELS, NoCounters, RayCounters};
 pub use grid::Grid;
 pub use hierarchy::{GridLevelStats, cubical_resolution};
@@ -239,4 +241,5 @@ structures! {
     Brute => Brute,
     Grid => Grid,
     Hug => Hug,
+    Bvh => Bvh,
 }

@@ -1,5 +1,7 @@
-//! Single-sample soft shadows (Parker, Shirley and Smits, as RTNews's "Great Shadow Hack"
-//! summarises them, `../shared/papers/rtnews-hierarchical-grids-comparison.txt`).
+//! Single-sample soft shadows (S. Parker, P. Shirley and B. Smits, "Single Sample Soft
+//! Shadows", University of Utah technical report, 1998), as Eric Haines's "Great Shadow Hack"
+//! in the Ray Tracing News (the issue after RTNv10n3, beside the hierarchical-grids
+//! comparison) summarises them.
 //!
 //! One shadow ray per light, as for hard shadows. Each occluder is widened by a fringe whose
 //! width grows linearly with its distance from the shaded point; a ray through the occluder

@@ -33,6 +33,10 @@ pub fn specs() -> Vec<String> {
             // EG95 as published, and SCG97's improvements.
             "hug:filter=levels,cluster=cluster3d,alpha=0.01,world=2n,density=1,prune=false",
             "hug:filter=two,cluster=cluster3d,alpha=0.01,world=sqrt2,density=1,prune=false",
+            // Trees: leaves of one primitive, of sixteen with two bins, no SAH traversal cost.
+            "bvh:leaf=1",
+            "bvh:leaf=16,bins=2,traversal=0",
+            "bvh:simd=false",
             // The portable path, where the others test triangles eight at a time.
             "grid:simd=false",
             "hug:simd=false,filter=levels,min_cluster=1,loose=1e30",
