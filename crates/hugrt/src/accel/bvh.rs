@@ -124,8 +124,10 @@ struct Builder {
 const PARALLEL_ITEMS: usize = 4096;
 
 impl Builder {
-    fn build(&self, items: &mut [Item], first: usize, depth: usize) -> BuildNode {
-        let bounds = items.iter().fold(Aabb::EMPTY, |b, it| b.union(&it.bounds));
+    /// Builds the subtree of `items` (the `first`-th and on of the whole array), whose box
+    /// and box of centres are `ext` ([`extents`]).
+    fn build(&self, items: &mut [Item], first: usize, depth: usize, ext: Extents) -> BuildNode {
+        let (bounds, centres) = ext;
         let n = items.len();
         let leaf = BuildNode::Leaf {
             bounds,
@@ -135,7 +137,6 @@ impl Builder {
         if n <= 1 {
             return leaf;
         }
-        let centres = items.iter().fold(Aabb::EMPTY, |b, it| b.grow(it.centre));
         let plane = if depth < MEDIAN_DEPTH {
             self.sah_split(items, &bounds, &centres)
         } else {
@@ -143,29 +144,26 @@ impl Builder {
         };
         // A leaf when it is small enough and no plane costs less than testing everything
         // (SAH: a test costs 1, a traversal step `traversal_cost`).
-        let mid = match plane {
+        let split = match plane {
             Some((cost, _, _)) if n <= self.leaf_size && cost >= n as f32 => return leaf,
             None if n <= self.leaf_size => return leaf,
-            Some((_, axis, position)) => {
-                let mid = partition(items, |it| it.centre[axis] < position);
-                if mid == 0 || mid == n {
-                    median(items, &centres)
-                } else {
-                    mid
-                }
-            }
-            None => median(items, &centres),
+            Some((_, axis, position)) => partition(items, axis, position),
+            None => None,
         };
+        let (mid, left_ext, right_ext) = split.unwrap_or_else(|| {
+            let mid = median(items, &centres);
+            (mid, extents(&items[..mid]), extents(&items[mid..]))
+        });
         let (left, right) = items.split_at_mut(mid);
         let (l, r) = if n > PARALLEL_ITEMS {
             rayon::join(
-                || self.build(left, first, depth + 1),
-                || self.build(right, first + mid, depth + 1),
+                || self.build(left, first, depth + 1, left_ext),
+                || self.build(right, first + mid, depth + 1, right_ext),
             )
         } else {
             (
-                self.build(left, first, depth + 1),
-                self.build(right, first + mid, depth + 1),
+                self.build(left, first, depth + 1, left_ext),
+                self.build(right, first + mid, depth + 1, right_ext),
             )
         };
         BuildNode::Inner {
@@ -187,24 +185,47 @@ impl Builder {
         if area.is_nan() || area <= 0.0 {
             return None;
         }
-        let nb = self.bins;
+        // No more bins than items: small nodes, which are most nodes, bin cheaply.
+        let nb = self.bins.min(items.len()).max(2);
+        let scale = Vec3::splat(nb as f32) / extent;
+        // One pass over the items fills the bins of all three axes; large nodes bin in
+        // parallel chunks whose bins are then merged.
+        let fill = |bins: &mut Bins, chunk: &[Item]| {
+            for it in chunk {
+                let b = ((it.centre - centres.min) * scale).to_array();
+                for (axis, x) in b.into_iter().enumerate() {
+                    // NaN (an axis of no extent: 0·∞) and overflow clamp into the bins.
+                    let k = axis * nb + (x as usize).min(nb - 1);
+                    bins.boxes[k] = bins.boxes[k].union(&it.bounds);
+                    bins.counts[k] += 1;
+                }
+            }
+        };
+        let bins = if items.len() > PARALLEL_BINNING {
+            use rayon::prelude::*;
+            items
+                .par_chunks(PARALLEL_BINNING / 4)
+                .map(|chunk| {
+                    let mut bins = Bins::new(nb);
+                    fill(&mut bins, chunk);
+                    bins
+                })
+                .reduce(|| Bins::new(nb), |a, b| a.merge(&b))
+        } else {
+            let mut bins = Bins::new(nb);
+            fill(&mut bins, items);
+            bins
+        };
         let mut best: Option<(f32, usize, f32)> = None;
         for axis in 0..3 {
             if extent[axis].is_nan() || extent[axis] <= 0.0 {
                 continue;
             }
-            let scale = nb as f32 / extent[axis];
-            let lo = centres.min[axis];
-            let mut boxes = [Aabb::EMPTY; 64];
-            let mut counts = [0usize; 64];
-            for it in items {
-                let b = (((it.centre[axis] - lo) * scale) as usize).min(nb - 1);
-                boxes[b] = boxes[b].union(&it.bounds);
-                counts[b] += 1;
-            }
+            let boxes = &bins.boxes[axis * nb..(axis + 1) * nb];
+            let counts = &bins.counts[axis * nb..(axis + 1) * nb];
             // Area and count of the bins right of each plane, swept from the right.
-            let mut right_area = [0f32; 64];
-            let mut right_count = [0usize; 64];
+            let mut right_area = [0f32; MAX_BINS];
+            let mut right_count = [0u32; MAX_BINS];
             let (mut acc, mut cnt) = (Aabb::EMPTY, 0);
             for b in (1..nb).rev() {
                 acc = acc.union(&boxes[b]);
@@ -225,7 +246,7 @@ impl Builder {
                 }
                 let cost = acc.surface_area() * cnt as f32 + right_area[b] * right_count[b] as f32;
                 if best.is_none_or(|(c, _, _)| cost < c) {
-                    best = Some((cost, axis, lo + b as f32 / scale));
+                    best = Some((cost, axis, centres.min[axis] + b as f32 / scale[axis]));
                 }
             }
         }
@@ -233,16 +254,73 @@ impl Builder {
     }
 }
 
-/// Moves the items satisfying `left` to the front; returns how many there are.
-fn partition(items: &mut [Item], left: impl Fn(&Item) -> bool) -> usize {
-    let mut i = 0;
-    for j in 0..items.len() {
-        if left(&items[j]) {
-            items.swap(i, j);
-            i += 1;
+/// The box of some items and the box of their centres.
+type Extents = (Aabb, Aabb);
+
+/// The [`Extents`] of the items (in parallel for large nodes).
+fn extents(items: &[Item]) -> Extents {
+    let fold = |(b, c): (Aabb, Aabb), it: &Item| (b.union(&it.bounds), c.grow(it.centre));
+    let empty = (Aabb::EMPTY, Aabb::EMPTY);
+    if items.len() > PARALLEL_BINNING {
+        use rayon::prelude::*;
+        items
+            .par_iter()
+            .fold(|| empty, fold)
+            .reduce(|| empty, |a, b| (a.0.union(&b.0), a.1.union(&b.1)))
+    } else {
+        items.iter().fold(empty, fold)
+    }
+}
+
+/// Most bins per axis (the `bins` key's upper bound).
+const MAX_BINS: usize = 32;
+
+/// Nodes of more items bin in parallel.
+const PARALLEL_BINNING: usize = 1 << 16;
+
+/// The boxes and counts of the bins of the three axes, axis after axis.
+struct Bins {
+    boxes: Vec<Aabb>,
+    counts: Vec<u32>,
+}
+
+impl Bins {
+    fn new(bins: usize) -> Self {
+        Bins {
+            boxes: vec![Aabb::EMPTY; 3 * bins],
+            counts: vec![0; 3 * bins],
         }
     }
-    i
+
+    fn merge(mut self, o: &Bins) -> Bins {
+        for (a, b) in self.boxes.iter_mut().zip(&o.boxes) {
+            *a = a.union(b);
+        }
+        for (a, b) in self.counts.iter_mut().zip(&o.counts) {
+            *a += b;
+        }
+        self
+    }
+}
+
+/// Moves the items whose centre lies before `position` on `axis` to the front; returns how
+/// many there are and the extents of both sides, gathered in the same pass, or `None` when a
+/// side is empty.
+fn partition(items: &mut [Item], axis: usize, position: f32) -> Option<(usize, Extents, Extents)> {
+    let mut left = (Aabb::EMPTY, Aabb::EMPTY);
+    let mut right = (Aabb::EMPTY, Aabb::EMPTY);
+    let mut i = 0;
+    for j in 0..items.len() {
+        let it = items[j];
+        if it.centre[axis] < position {
+            left = (left.0.union(&it.bounds), left.1.grow(it.centre));
+            items.swap(i, j);
+            i += 1;
+        } else {
+            right = (right.0.union(&it.bounds), right.1.grow(it.centre));
+        }
+    }
+    (i > 0 && i < items.len()).then_some((i, left, right))
 }
 
 /// Splits at the median of the centres along their widest axis (ties by store entry, so the
@@ -406,7 +484,7 @@ impl Accel for Bvh {
             "leaf",
             "most primitives a leaf holds when the SAH does not split it, 1..16 (default 8)",
         ),
-        ("bins", "SAH bins per axis, 2..64 (default 16)"),
+        ("bins", "SAH bins per axis, 2..32 (default 16)"),
         (
             "traversal",
             "cost of a traversal step relative to a primitive test, for the SAH, 0..100 (default 1)",
@@ -419,7 +497,7 @@ impl Accel for Bvh {
 
     fn build<P: Primitives>(prims: &P, spec: &Spec) -> Result<Self, SpecError> {
         let leaf_size = spec.usize_in("leaf", 8, 1, MAX_LEAF)?;
-        let bins = spec.usize_in("bins", 16, 2, 64)?;
+        let bins = spec.usize_in("bins", 16, 2, MAX_BINS)?;
         let traversal_cost = spec.f32_in("traversal", 1.0, 0.0, 100.0)?;
         let simd_key = spec.bool("simd", true)?;
         let n = prims.len();
@@ -459,7 +537,8 @@ impl Accel for Bvh {
             bins,
             traversal_cost,
         };
-        let root = builder.build(&mut items, 0, 0);
+        let ext = extents(&items);
+        let root = builder.build(&mut items, 0, 0, ext);
         let simd = simd_key && simd::available() && store.triangles().len() * 9 < i32::MAX as usize;
         let mut bvh = Bvh {
             nodes: Vec::new(),
@@ -486,6 +565,7 @@ impl Accel for Bvh {
             inner => inner,
         };
         bvh.emit(root, &items, 0);
+        bvh.nodes.shrink_to_fit();
         Ok(bvh)
     }
 
