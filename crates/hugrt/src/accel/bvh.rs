@@ -590,66 +590,87 @@ impl Accel for Bvh {
         let far_row = [0, 1, 2].map(|a| a + 3 * (!neg[a]) as usize);
         let tmin = ray.tmin;
         let mut stack = [(0f32, 0u32); STACK];
-        let mut top = 1;
-        stack[0] = (tmin, 0);
-        while top > 0 {
-            top -= 1;
-            let (dist, child) = stack[top];
-            if dist > near.t {
-                continue;
-            }
-            counters.cell_visit(0);
-            if child & LEAF != 0 {
-                let start = (child & ((1 << LEAF_START_BITS) - 1)) as usize;
-                let count = ((child & !LEAF) >> LEAF_START_BITS) as usize + 1;
-                if self.test_leaf::<P, C, ANY_HIT>(
-                    &self.refs[start..start + count],
-                    prims,
-                    &pr,
-                    tmin,
-                    &mut near,
-                    counters,
-                ) {
-                    return near.hit(&self.store);
-                }
-                continue;
-            }
-            let node = &self.nodes[child as usize];
-            let mut t0 = [tmin; WIDTH];
-            let mut t1 = [near.t; WIDTH];
-            for a in 0..3 {
-                let (lo, hi) = (&node.bounds[near_row[a]], &node.bounds[far_row[a]]);
-                for k in 0..WIDTH {
-                    // A NaN (0·∞: the ray lies in this face's plane) fails both comparisons
-                    // and leaves the interval as it was.
-                    let tn = (lo[k] - o[a]) * inv[a];
-                    let tf = (hi[k] - o[a]) * inv[a];
-                    t0[k] = if tn > t0[k] { tn } else { t0[k] };
-                    t1[k] = if tf < t1[k] { tf } else { t1[k] };
-                }
-            }
-            // Children hit, sorted by entry distance (insertion into at most four places), then
-            // pushed farthest first so that the nearest is opened next.
-            let mut hits: [(f32, u32); WIDTH] = [(0.0, 0); WIDTH];
-            let mut n = 0;
-            for k in 0..WIDTH {
-                if node.children[k] != NO_CHILD {
-                    counters.box_test(0);
-                    if t0[k] <= t1[k] {
-                        let mut i = n;
-                        while i > 0 && hits[i - 1].0 < t0[k] {
-                            hits[i] = hits[i - 1];
-                            i -= 1;
+        let mut top = 0;
+        // The entry being opened: its entry distance and child reference. One child hit is
+        // opened at once; of several, the nearest is, and the others wait on the stack,
+        // farthest deepest.
+        let mut current = (tmin, 0u32);
+        loop {
+            let (dist, child) = current;
+            if dist <= near.t {
+                counters.cell_visit(0);
+                if child & LEAF != 0 {
+                    let start = (child & ((1 << LEAF_START_BITS) - 1)) as usize;
+                    let count = ((child & !LEAF) >> LEAF_START_BITS) as usize + 1;
+                    if self.test_leaf::<P, C, ANY_HIT>(
+                        &self.refs[start..start + count],
+                        prims,
+                        &pr,
+                        tmin,
+                        &mut near,
+                        counters,
+                    ) {
+                        return near.hit(&self.store);
+                    }
+                } else {
+                    let node = &self.nodes[child as usize];
+                    let mut t0 = [tmin; WIDTH];
+                    let mut t1 = [near.t; WIDTH];
+                    for a in 0..3 {
+                        let (lo, hi) = (&node.bounds[near_row[a]], &node.bounds[far_row[a]]);
+                        for k in 0..WIDTH {
+                            // A NaN (0·∞: the ray lies in this face's plane) fails both
+                            // comparisons and leaves the interval as it was.
+                            let tn = (lo[k] - o[a]) * inv[a];
+                            let tf = (hi[k] - o[a]) * inv[a];
+                            t0[k] = if tn > t0[k] { tn } else { t0[k] };
+                            t1[k] = if tf < t1[k] { tf } else { t1[k] };
                         }
-                        hits[i] = (t0[k], node.children[k]);
-                        n += 1;
+                    }
+                    // Unused slots have empty boxes and are never hit.
+                    let mut mask = 0u32;
+                    for k in 0..WIDTH {
+                        mask |= ((t0[k] <= t1[k]) as u32) << k;
+                        if node.children[k] != NO_CHILD {
+                            counters.box_test(0);
+                        }
+                    }
+                    if mask != 0 {
+                        let k = mask.trailing_zeros() as usize;
+                        mask &= mask - 1;
+                        if mask == 0 {
+                            current = (t0[k], node.children[k]);
+                            continue;
+                        }
+                        // Several: sorted by entry distance, farthest first, by insertion.
+                        let mut hits = [(0f32, 0u32); WIDTH];
+                        hits[0] = (t0[k], node.children[k]);
+                        let mut n = 1;
+                        while mask != 0 {
+                            let k = mask.trailing_zeros() as usize;
+                            mask &= mask - 1;
+                            let mut i = n;
+                            while i > 0 && hits[i - 1].0 < t0[k] {
+                                hits[i] = hits[i - 1];
+                                i -= 1;
+                            }
+                            hits[i] = (t0[k], node.children[k]);
+                            n += 1;
+                        }
+                        for &h in &hits[..n - 1] {
+                            stack[top] = h;
+                            top += 1;
+                        }
+                        current = hits[n - 1];
+                        continue;
                     }
                 }
             }
-            for &h in &hits[..n] {
-                stack[top] = h;
-                top += 1;
+            if top == 0 {
+                break;
             }
+            top -= 1;
+            current = stack[top];
         }
         near.hit(&self.store)
     }
