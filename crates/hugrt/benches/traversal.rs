@@ -14,6 +14,7 @@ const SPECS: &[&str] = &[
     "hug",
     "hug:filter=levels,cluster=cluster3d,alpha=0.01,world=2n,density=1,prune=false",
     "bvh",
+    "kdtree",
 ];
 
 fn build(c: &mut Criterion) {

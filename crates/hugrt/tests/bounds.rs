@@ -26,6 +26,11 @@ const SPECS: &[&str] = &[
 ];
 
 const TREES: &[&str] = &["bvh", "bvh:leaf=1", "bvh:leaf=16,bins=2,traversal=0"];
+const KD_TREES: &[&str] = &[
+    "kdtree",
+    "kdtree:split=mid,leaf=1,depth=64",
+    "kdtree:traversal=0",
+];
 
 fn stat(a: &AnyAccel, key: &str) -> f64 {
     a.stats()
@@ -77,7 +82,23 @@ fn check(scene: &Scene, rays: usize) {
             assert_eq!(stat(&a, "references_per_object"), 1.0, "{spec}");
         }
     }
-    let specs: Vec<String> = SPECS.iter().chain(TREES).map(|s| s.to_string()).collect();
+    // The kd-trees: references within the budget of `64·n + 4096`, depth within its limit.
+    for spec in KD_TREES {
+        let a = AnyAccel::build(scene, spec).unwrap_or_else(|e| panic!("{spec}: {e}"));
+        let refs = stat(&a, "references");
+        assert!(
+            refs <= 64.0 * n + 4096.0,
+            "{spec}: {refs} references for {n} objects"
+        );
+        let depth = stat(&a, "max_depth");
+        assert!(depth <= 64.0, "{spec}: depth {depth}");
+    }
+    let specs: Vec<String> = SPECS
+        .iter()
+        .chain(TREES)
+        .chain(KD_TREES)
+        .map(|s| s.to_string())
+        .collect();
     assert_all_agree(scene, &specs, &rays_for(&scene.bounds(), 77, rays));
 }
 

@@ -16,6 +16,7 @@ mod counters;
 mod grid;
 mod hierarchy;
 pub mod hug;
+mod kdtree;
 mod mailbox;
 mod simd;
 mod sort;
@@ -28,6 +29,7 @@ pub use counters::{Counters, LevelCounts, MAX_LEVELS, NoCounters, RayCounters};
 pub use grid::Grid;
 pub use hierarchy::{GridLevelStats, cubical_resolution};
 pub use hug::Hug;
+pub use kdtree::KdTree;
 pub use mailbox::Mailbox;
 pub use spec::{Spec, SpecError};
 pub use store::{Nearest, PrimStore};
@@ -242,4 +244,5 @@ structures! {
     Grid => Grid,
     Hug => Hug,
     Bvh => Bvh,
+    KdTree => KdTree,
 }

@@ -37,6 +37,9 @@ pub fn specs() -> Vec<String> {
             "bvh:leaf=1",
             "bvh:leaf=16,bins=2,traversal=0",
             "bvh:simd=false",
+            "kdtree:split=mid",
+            "kdtree:split=mid,leaf=1,depth=20",
+            "kdtree:traversal=0,depth=40",
             // The portable path, where the others test triangles eight at a time.
             "grid:simd=false",
             "hug:simd=false,filter=levels,min_cluster=1,loose=1e30",

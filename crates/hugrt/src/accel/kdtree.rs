@@ -1,0 +1,513 @@
+//! kd-tree: an axis-aligned BSP tree (Havran §3.5.1–3.5.2).
+//!
+//! * `split=sah` (default): the plane minimising Havran's cost (eq. 3),
+//!   `C = T_T + (S_L/S)·n_L + (S_R/S)·n_R` in units of one intersection test, searched over
+//!   the key positions of §4.2 (every primitive box's min and max, clipped to the node, on all
+//!   three axes) by a sweep over the sorted events (Wald and Havran, "On building fast
+//!   kd-trees for ray tracing", 2006: ends before planars before starts at one position, and a
+//!   planar primitive on whichever side is cheaper); a side left empty has its cost scaled by
+//!   0.8, the usual reward for cutting off empty space. A node becomes a leaf when no plane
+//!   costs less than testing its primitives. Events are sorted at each node (`O(n log² n)`).
+//! * `split=mid`: Sung and Shirley's mid-point split on cyclic axes, until a leaf holds `leaf`
+//!   primitives (default 3) or the depth reaches `depth` (default 30).
+//! * Both stop at the depth limit (`depth`; for the SAH `8 + 1.3·log2 n` unless given), and a
+//!   split that would leave every primitive on both sides is not made. References are bounded
+//!   by a budget of `64·n + 4096` (a node that would exceed it stays a leaf).
+//! * Traversal: the classic near/far descent with an explicit stack of `(node, t_near,
+//!   t_far)`; a leaf's hit ends the query once it lies before the leaf's exit, and a mailbox
+//!   keeps a primitive referenced by several leaves from being tested twice.
+//!
+//! Exactness: primitives are binned with their boxes widened by 64 ulps of the scene's
+//! magnitude, as in the grids (`hierarchy`), so a primitive whose hit lies within rounding of
+//! a leaf's interval is referenced by that leaf, and stopping at the leaf's exit never misses
+//! a nearer hit beyond it. A ray lying in a splitting plane (0·∞) visits one side, which holds
+//! everything on the plane.
+//!
+//! Not here yet (issue 7): Havran's `O(n log n)` build with events sorted once, his
+//! empty-space cutting (§4.2.2, eq. 7–8) and the cache-sensitive layouts of §4.3.
+
+use super::store::{Nearest, PrimStore, finite};
+use super::{
+    Accel, CellCensus, Counters, Hit, Mailbox, Primitives, Spec, SpecError, StructureStats,
+};
+use crate::geometry::{Aabb, PreparedRay, Ray};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+/// See [`super::bvh`]: the same widening, for the same reason.
+const MARGIN: f32 = 1.0 / (1 << 17) as f32;
+
+/// Deepest tree allowed by the `depth` key.
+const MAX_DEPTH: usize = 64;
+
+/// Leaf marker in [`KdNode::a`]'s two low bits.
+const LEAF: u32 = 3;
+
+/// Eight bytes. Inner: `a` = axis | index of the child above the plane << 2 (the child below
+/// follows its parent), `b` = the plane's `f32` bits. Leaf: `a` = 3 | count << 2, `b` = first
+/// reference.
+#[derive(Clone, Copy)]
+struct KdNode {
+    a: u32,
+    b: u32,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum SplitRule {
+    Sah,
+    Mid,
+}
+
+pub struct KdTree {
+    nodes: Vec<KdNode>,
+    refs: Vec<u32>,
+    store: PrimStore,
+    bounds: Aabb,
+    rule: SplitRule,
+    stats: TreeStats,
+}
+
+#[derive(Clone, Copy, Default)]
+struct TreeStats {
+    leaves: usize,
+    empty_leaves: usize,
+    max_depth: usize,
+    depth_sum: usize,
+    full_volume: f64,
+}
+
+enum BuildNode {
+    Leaf(Vec<u32>),
+    Inner {
+        axis: usize,
+        split: f32,
+        children: Box<[BuildNode; 2]>,
+    },
+}
+
+struct Builder<'a> {
+    boxes: &'a [Aabb],
+    rule: SplitRule,
+    leaf_size: usize,
+    max_depth: usize,
+    traversal_cost: f32,
+    /// References still allowed beyond one per primitive.
+    budget: AtomicUsize,
+}
+
+/// A plane and which side gets the primitives lying in it.
+struct Plane {
+    axis: usize,
+    pos: f32,
+    planar_left: bool,
+    cost: f32,
+}
+
+const EMPTY_BONUS: f32 = 0.8;
+
+fn clip(b: &Aabb, node: &Aabb, axis: usize) -> (f32, f32) {
+    (
+        b.min[axis].max(node.min[axis]),
+        b.max[axis].min(node.max[axis]),
+    )
+}
+
+impl Builder<'_> {
+    fn build(&self, items: Vec<u32>, node: Aabb, depth: usize) -> BuildNode {
+        let n = items.len();
+        if n <= 1 || depth >= self.max_depth {
+            return BuildNode::Leaf(items);
+        }
+        let plane = match self.rule {
+            SplitRule::Sah => self.sah(&items, &node),
+            SplitRule::Mid => {
+                if n <= self.leaf_size {
+                    return BuildNode::Leaf(items);
+                }
+                let axis = depth % 3;
+                Some(Plane {
+                    axis,
+                    pos: 0.5 * (node.min[axis] + node.max[axis]),
+                    planar_left: true,
+                    cost: 0.0,
+                })
+            }
+        };
+        let Some(p) = plane else {
+            return BuildNode::Leaf(items);
+        };
+        if self.rule == SplitRule::Sah && p.cost >= n as f32 {
+            return BuildNode::Leaf(items);
+        }
+        let (mut left, mut right) = (Vec::new(), Vec::new());
+        for &i in &items {
+            let (lo, hi) = clip(&self.boxes[i as usize], &node, p.axis);
+            if lo == p.pos && hi == p.pos {
+                if p.planar_left {
+                    left.push(i)
+                } else {
+                    right.push(i)
+                }
+            } else {
+                if lo < p.pos {
+                    left.push(i);
+                }
+                if hi > p.pos {
+                    right.push(i);
+                }
+            }
+        }
+        // Nothing gained when every primitive lands on both sides; and the reference budget
+        // bounds memory whatever the scene.
+        let added = (left.len() + right.len()).saturating_sub(n);
+        if (left.len() == n && right.len() == n)
+            || self
+                .budget
+                .fetch_update(Ordering::Relaxed, Ordering::Relaxed, |b| {
+                    b.checked_sub(added)
+                })
+                .is_err()
+        {
+            return BuildNode::Leaf(items);
+        }
+        drop(items);
+        let (mut below, mut above) = (node, node);
+        below.max[p.axis] = p.pos;
+        above.min[p.axis] = p.pos;
+        let (l, r) = if n > 4096 {
+            rayon::join(
+                || self.build(left, below, depth + 1),
+                || self.build(right, above, depth + 1),
+            )
+        } else {
+            (
+                self.build(left, below, depth + 1),
+                self.build(right, above, depth + 1),
+            )
+        };
+        BuildNode::Inner {
+            axis: p.axis,
+            split: p.pos,
+            children: Box::new([l, r]),
+        }
+    }
+
+    /// The cheapest plane over the key positions of all three axes (see the module doc).
+    fn sah(&self, items: &[u32], node: &Aabb) -> Option<Plane> {
+        let area = node.surface_area();
+        if area.is_nan() || area <= 0.0 {
+            return None;
+        }
+        let n = items.len();
+        let e = node.extent();
+        let mut best: Option<Plane> = None;
+        // Event kinds in sweep order at one position: ends, planars, starts.
+        const END: u8 = 0;
+        const PLANAR: u8 = 1;
+        const START: u8 = 2;
+        let mut events: Vec<(f32, u8)> = Vec::with_capacity(2 * n);
+        for axis in 0..3 {
+            if e[axis].is_nan() || e[axis] <= 0.0 {
+                continue;
+            }
+            events.clear();
+            for &i in items {
+                let (lo, hi) = clip(&self.boxes[i as usize], node, axis);
+                if lo == hi {
+                    events.push((lo, PLANAR));
+                } else {
+                    events.push((lo, START));
+                    events.push((hi, END));
+                }
+            }
+            events.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+            let (a1, a2) = ((axis + 1) % 3, (axis + 2) % 3);
+            let cap = e[a1] * e[a2];
+            let ring = e[a1] + e[a2];
+            let (mut nl, mut nr) = (0usize, n);
+            let mut k = 0;
+            while k < events.len() {
+                let pos = events[k].0;
+                let (mut ends, mut planars, mut starts) = (0, 0, 0);
+                while k < events.len() && events[k].0 == pos && events[k].1 == END {
+                    ends += 1;
+                    k += 1;
+                }
+                while k < events.len() && events[k].0 == pos && events[k].1 == PLANAR {
+                    planars += 1;
+                    k += 1;
+                }
+                while k < events.len() && events[k].0 == pos && events[k].1 == START {
+                    starts += 1;
+                    k += 1;
+                }
+                nr -= ends + planars;
+                if pos > node.min[axis] && pos < node.max[axis] {
+                    let below = pos - node.min[axis];
+                    let above = node.max[axis] - pos;
+                    let sl = 2.0 * (cap + below * ring);
+                    let sr = 2.0 * (cap + above * ring);
+                    for planar_left in [true, false] {
+                        let (l, r) = if planar_left {
+                            (nl + planars, nr)
+                        } else {
+                            (nl, nr + planars)
+                        };
+                        let bonus = if l == 0 || r == 0 { EMPTY_BONUS } else { 1.0 };
+                        let cost =
+                            self.traversal_cost + bonus * (sl * l as f32 + sr * r as f32) / area;
+                        if best.as_ref().is_none_or(|b| cost < b.cost) {
+                            best = Some(Plane {
+                                axis,
+                                pos,
+                                planar_left,
+                                cost,
+                            });
+                        }
+                    }
+                }
+                nl += starts + planars;
+            }
+        }
+        best
+    }
+}
+
+impl KdTree {
+    /// Flattens depth first: a node, its subtree below the plane, then above.
+    fn emit(&mut self, node: BuildNode, cell: Aabb, depth: usize) {
+        match node {
+            BuildNode::Leaf(mut items) => {
+                items.sort_unstable();
+                let start = self.refs.len() as u32;
+                self.nodes.push(KdNode {
+                    a: LEAF | (items.len() as u32) << 2,
+                    b: start,
+                });
+                self.stats.leaves += 1;
+                self.stats.max_depth = self.stats.max_depth.max(depth);
+                self.stats.depth_sum += depth;
+                if items.is_empty() {
+                    self.stats.empty_leaves += 1;
+                } else {
+                    self.stats.full_volume += cell.volume() as f64;
+                }
+                self.refs.extend(items);
+            }
+            BuildNode::Inner {
+                axis,
+                split,
+                children,
+            } => {
+                let index = self.nodes.len();
+                self.nodes.push(KdNode {
+                    a: axis as u32,
+                    b: split.to_bits(),
+                });
+                let [below, above] = *children;
+                let (mut lo, mut hi) = (cell, cell);
+                lo.max[axis] = split;
+                hi.min[axis] = split;
+                self.emit(below, lo, depth + 1);
+                let above_index = self.nodes.len() as u32;
+                self.nodes[index].a |= above_index << 2;
+                self.emit(above, hi, depth + 1);
+            }
+        }
+    }
+}
+
+impl Accel for KdTree {
+    const NAME: &'static str = "kdtree";
+    const KEYS: &'static [(&'static str, &'static str)] = &[
+        (
+            "split",
+            "sah: Havran's cost at the key positions (default); mid: mid-point, cyclic axes",
+        ),
+        (
+            "leaf",
+            "mid: most primitives a leaf holds, 1..1000 (default 3); sah: leaves are as the cost decides",
+        ),
+        (
+            "depth",
+            "deepest level, 1..64 (default: sah 8 + 1.3 log2 n, mid 30)",
+        ),
+        (
+            "traversal",
+            "sah: cost of a traversal step relative to a primitive test, 0..100 (default 0.75)",
+        ),
+    ];
+
+    fn build<P: Primitives>(prims: &P, spec: &Spec) -> Result<Self, SpecError> {
+        let rule = match spec.choice("split", &["sah", "mid"], "sah")? {
+            "mid" => SplitRule::Mid,
+            _ => SplitRule::Sah,
+        };
+        let leaf_size = spec.usize_in("leaf", 3, 1, 1000)?;
+        let n = prims.len();
+        let default_depth = match rule {
+            SplitRule::Sah => (8.0 + 1.3 * (n.max(1) as f64).log2()).round() as usize,
+            SplitRule::Mid => 30,
+        };
+        let max_depth = spec.usize_in("depth", default_depth.min(MAX_DEPTH), 1, MAX_DEPTH)?;
+        let traversal_cost = spec.f32_in("traversal", 0.75, 0.0, 100.0)?;
+        if n >= 1 << 30 {
+            return Err(SpecError::Build(format!(
+                "{n} primitives: the kdtree holds at most 2^30-1"
+            )));
+        }
+        let store = PrimStore::build(prims);
+        let raw: Vec<Aabb> = (0..store.len() as u32)
+            .map(|s| store.bounds(prims, s))
+            .collect();
+        let scene = raw
+            .iter()
+            .filter(|b| finite(b))
+            .fold(Aabb::EMPTY, |a, b| a.union(b));
+        let margin = if scene.is_empty() {
+            0.0
+        } else {
+            scene.magnitude().max(scene.extent().max_element()) * MARGIN
+        };
+        let boxes: Vec<Aabb> = raw.iter().map(|b| b.expand(margin)).collect();
+        let items: Vec<u32> = (0..store.len() as u32)
+            .filter(|&s| finite(&raw[s as usize]))
+            .collect();
+        let bounds = scene.expand(margin);
+        let builder = Builder {
+            boxes: &boxes,
+            rule,
+            leaf_size: if rule == SplitRule::Mid { leaf_size } else { 1 },
+            max_depth,
+            traversal_cost,
+            budget: AtomicUsize::new(63 * items.len() + 4096),
+        };
+        let root = builder.build(items, bounds, 0);
+        let mut tree = KdTree {
+            nodes: Vec::new(),
+            refs: Vec::new(),
+            store,
+            bounds,
+            rule,
+            stats: TreeStats::default(),
+        };
+        tree.emit(root, bounds, 0);
+        tree.nodes.shrink_to_fit();
+        tree.refs.shrink_to_fit();
+        Ok(tree)
+    }
+
+    fn query<P: Primitives, C: Counters, const ANY_HIT: bool>(
+        &self,
+        prims: &P,
+        ray: &Ray,
+        counters: &mut C,
+    ) -> Option<Hit> {
+        if self.refs.is_empty() {
+            return None;
+        }
+        let pr = PreparedRay::new(ray);
+        let mut near = Nearest::new(ray.tmax);
+        counters.box_test(0);
+        let (t0, t1) = self.bounds.intersect(&pr, ray.tmin, ray.tmax)?;
+        let o = ray.origin.to_array();
+        let d = ray.dir.to_array();
+        let inv = pr.inv_dir.to_array();
+        let mut mail = Mailbox::default();
+        let mut stack = [(0u32, 0f32, 0f32); 2 * MAX_DEPTH + 2];
+        let mut top = 0;
+        let (mut node, mut tn, mut tf) = (0u32, t0, t1);
+        loop {
+            if tn <= near.t {
+                counters.cell_visit(0);
+                let kd = self.nodes[node as usize];
+                if kd.a & 3 != LEAF {
+                    let axis = (kd.a & 3) as usize;
+                    let split = f32::from_bits(kd.b);
+                    let below = node + 1;
+                    let above = kd.a >> 2;
+                    let below_first = o[axis] < split || (o[axis] == split && d[axis] <= 0.0);
+                    let (first, second) = if below_first {
+                        (below, above)
+                    } else {
+                        (above, below)
+                    };
+                    let ts = (split - o[axis]) * inv[axis];
+                    // NaN (the ray lies in the plane) visits the first side only.
+                    if ts > tf || ts <= 0.0 || ts.is_nan() {
+                        node = first;
+                    } else if ts < tn {
+                        node = second;
+                    } else {
+                        stack[top] = (second, ts, tf);
+                        top += 1;
+                        node = first;
+                        tf = ts;
+                    }
+                    continue;
+                }
+                let start = kd.b as usize;
+                let count = (kd.a >> 2) as usize;
+                for &r in &self.refs[start..start + count] {
+                    if !mail.first_visit(r) {
+                        continue;
+                    }
+                    counters.prim_test(0);
+                    if let Some(t) = self.store.intersect(prims, r, &pr, ray.tmin, near.t) {
+                        counters.prim_hit(0);
+                        if near.offer(&self.store, t, r) && ANY_HIT {
+                            return near.hit(&self.store);
+                        }
+                    }
+                }
+                if near.t <= tf {
+                    break;
+                }
+            }
+            if top == 0 {
+                break;
+            }
+            top -= 1;
+            (node, tn, tf) = stack[top];
+        }
+        near.hit(&self.store)
+    }
+
+    fn memory_bytes(&self) -> usize {
+        std::mem::size_of::<Self>()
+            + self.nodes.capacity() * std::mem::size_of::<KdNode>()
+            + self.refs.capacity() * 4
+            + self.store.memory_bytes()
+    }
+
+    fn stats(&self) -> StructureStats {
+        let n = self.store.len().max(1) as f64;
+        let t = &self.stats;
+        let mut s = StructureStats::default();
+        s.push("split_mid", (self.rule == SplitRule::Mid) as u8 as f64);
+        s.push("nodes", self.nodes.len() as f64);
+        s.push("leaves", t.leaves as f64);
+        s.push("empty_leaves", t.empty_leaves as f64);
+        s.push("max_depth", t.max_depth as f64);
+        s.push(
+            "mean_leaf_depth",
+            t.depth_sum as f64 / t.leaves.max(1) as f64,
+        );
+        s.push("references", self.refs.len() as f64);
+        s.push("references_per_object", self.refs.len() as f64 / n);
+        s.push("memory_bytes", self.memory_bytes() as f64);
+        s.push(
+            "structure_bytes_per_primitive",
+            (self.nodes.capacity() * std::mem::size_of::<KdNode>() + self.refs.capacity() * 4)
+                as f64
+                / n,
+        );
+        s.push("bytes_per_primitive", self.memory_bytes() as f64 / n);
+        s.census = CellCensus {
+            cells: self.nodes.len(),
+            full_cells: t.leaves - t.empty_leaves,
+            object_refs: self.refs.len(),
+            full_volume: t.full_volume,
+        };
+        s
+    }
+}
