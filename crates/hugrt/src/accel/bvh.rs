@@ -441,26 +441,19 @@ impl Bvh {
                 // SAFETY: `simd` is set only when AVX2 is present and `9·len` fits an i32
                 // (`build`); every index is a triangle's (below `triangles.len()`, by the
                 // partition of the sorted leaf), the padding repeats the first.
-                let lanes = unsafe { simd::triangles8(triangles, &batch, ray) };
-                let n = chunk.len();
-                for _ in 0..n {
-                    counters.prim_test(0);
-                }
-                let mut todo = (lanes.crossed | lanes.scalar) & ((1 << n) - 1);
-                while todo != 0 {
-                    let l = todo.trailing_zeros() as usize;
-                    todo &= todo - 1;
-                    let t = if lanes.scalar >> l & 1 != 0 {
-                        self.store.intersect(prims, batch[l], ray, tmin, near.t)
-                    } else {
-                        lanes.hit(l, tmin, near.t)
-                    };
-                    if let Some(t) = t {
-                        counters.prim_hit(0);
-                        if near.offer(&self.store, t, batch[l]) && ANY_HIT {
-                            return true;
-                        }
-                    }
+                if unsafe {
+                    self.store.offer_triangles8::<P, C, ANY_HIT>(
+                        prims,
+                        &batch,
+                        chunk.len(),
+                        ray,
+                        tmin,
+                        near,
+                        counters,
+                        0,
+                    )
+                } {
+                    return true;
                 }
             }
         }
@@ -700,13 +693,11 @@ impl Accel for Bvh {
             "primitives_per_leaf",
             self.refs.len() as f64 / leaves.max(1) as f64,
         );
-        s.push("memory_bytes", self.memory_bytes() as f64);
-        s.push(
-            "structure_bytes_per_primitive",
-            (self.nodes.capacity() * std::mem::size_of::<Node>() + self.refs.capacity() * 4) as f64
-                / n,
+        s.push_memory(
+            self.nodes.capacity() * std::mem::size_of::<Node>() + self.refs.capacity() * 4,
+            self.memory_bytes(),
+            self.store.len(),
         );
-        s.push("bytes_per_primitive", self.memory_bytes() as f64 / n);
         s.census = CellCensus {
             cells: self.nodes.len() + leaves,
             full_cells: leaves,

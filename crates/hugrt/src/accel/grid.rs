@@ -115,14 +115,10 @@ impl Accel for Grid {
             "references_per_object",
             root.object_refs as f64 / self.prims.max(1) as f64,
         );
-        s.push("memory_bytes", self.memory_bytes() as f64);
-        s.push(
-            "structure_bytes_per_primitive",
-            self.grids.grid_memory_bytes() as f64 / self.prims.max(1) as f64,
-        );
-        s.push(
-            "bytes_per_primitive",
-            self.memory_bytes() as f64 / self.prims.max(1) as f64,
+        s.push_memory(
+            self.grids.grid_memory_bytes(),
+            self.memory_bytes(),
+            self.prims,
         );
         s.census = self.grids.census();
         s.levels = levels;

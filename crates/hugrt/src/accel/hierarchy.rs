@@ -840,25 +840,12 @@ impl GridHierarchy {
                     // SAFETY: `simd` is set only when AVX2 is present and `9·len` fits an
                     // i32 (`build`); every batched index is a triangle's (below
                     // `triangles.len()`, by the partition), the padding repeats one of them.
-                    let lanes = unsafe { simd::triangles8(triangles, &batch, ray) };
-                    let mut todo = (lanes.crossed | lanes.scalar) & ((1 << n) - 1);
-                    for _ in 0..n {
-                        counters.prim_test(depth);
-                    }
-                    while todo != 0 {
-                        let l = todo.trailing_zeros() as usize;
-                        todo &= todo - 1;
-                        let t = if lanes.scalar >> l & 1 != 0 {
-                            self.store.intersect(prims, batch[l], ray, tmin, near.t)
-                        } else {
-                            lanes.hit(l, tmin, near.t)
-                        };
-                        if let Some(t) = t {
-                            counters.prim_hit(depth);
-                            if near.offer(&self.store, t, batch[l]) && ANY_HIT {
-                                return true;
-                            }
-                        }
+                    if unsafe {
+                        self.store.offer_triangles8::<P, C, ANY_HIT>(
+                            prims, &batch, n, ray, tmin, near, counters, depth,
+                        )
+                    } {
+                        return true;
                     }
                     n = 0;
                 }

@@ -494,14 +494,11 @@ impl Accel for KdTree {
         );
         s.push("references", self.refs.len() as f64);
         s.push("references_per_object", self.refs.len() as f64 / n);
-        s.push("memory_bytes", self.memory_bytes() as f64);
-        s.push(
-            "structure_bytes_per_primitive",
-            (self.nodes.capacity() * std::mem::size_of::<KdNode>() + self.refs.capacity() * 4)
-                as f64
-                / n,
+        s.push_memory(
+            self.nodes.capacity() * std::mem::size_of::<KdNode>() + self.refs.capacity() * 4,
+            self.memory_bytes(),
+            self.store.len(),
         );
-        s.push("bytes_per_primitive", self.memory_bytes() as f64 / n);
         s.census = CellCensus {
             cells: self.nodes.len(),
             full_cells: t.leaves - t.empty_leaves,

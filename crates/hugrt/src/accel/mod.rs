@@ -120,6 +120,15 @@ impl StructureStats {
     pub fn push(&mut self, name: &str, value: f64) {
         self.entries.push((name.to_string(), value));
     }
+
+    /// The memory entries every structure reports: all its bytes, and per primitive the
+    /// structure's own (without its copy of the primitives) and all of them.
+    pub fn push_memory(&mut self, structure_bytes: usize, all_bytes: usize, primitives: usize) {
+        let n = primitives.max(1) as f64;
+        self.push("memory_bytes", all_bytes as f64);
+        self.push("structure_bytes_per_primitive", structure_bytes as f64 / n);
+        self.push("bytes_per_primitive", all_bytes as f64 / n);
+    }
 }
 
 /// One spatial structure. `ANY_HIT` selects any-hit (occlusion) at compile time: the query may

@@ -21,7 +21,7 @@
 
 use super::hierarchy::Frame;
 use super::sort::radix_sort_high32;
-use super::{PrimitiveKind, Primitives};
+use super::{Counters, PrimitiveKind, Primitives, simd};
 use crate::geometry::{Aabb, Cone, PreparedRay, Sphere, Vec3, intersect_triangle};
 use rayon::prelude::*;
 
@@ -204,6 +204,53 @@ impl PrimStore {
         } else {
             prims.intersect(self.id(s) as usize, ray, tmin, tmax)
         }
+    }
+
+    /// Tests the triangles `batch[..n]` (`n ≤ 8`, the rest of `batch` repeating one of them)
+    /// eight at a time and offers their hits to `near` in lane order, as testing them one at
+    /// a time would (lanes the kernel leaves to the scalar test get it). Counts `n` tests at
+    /// `level`. Returns `true` when `ANY_HIT` took a hit.
+    ///
+    /// # Safety
+    /// The processor must support AVX2 ([`simd::available`]), `9 · triangles().len()` must be
+    /// below `i32::MAX`, and every entry of `batch` must be a triangle's (below
+    /// `triangles().len()`).
+    #[cfg(target_arch = "x86_64")]
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    pub(crate) unsafe fn offer_triangles8<P: Primitives, C: Counters, const ANY_HIT: bool>(
+        &self,
+        prims: &P,
+        batch: &[u32; 8],
+        n: usize,
+        ray: &PreparedRay,
+        tmin: f32,
+        near: &mut Nearest,
+        counters: &mut C,
+        level: usize,
+    ) -> bool {
+        // SAFETY: the caller's contract is the kernel's.
+        let lanes = unsafe { simd::triangles8(&self.tris, batch, ray) };
+        for _ in 0..n {
+            counters.prim_test(level);
+        }
+        let mut todo = (lanes.crossed | lanes.scalar) & ((1 << n) - 1);
+        while todo != 0 {
+            let l = todo.trailing_zeros() as usize;
+            todo &= todo - 1;
+            let t = if lanes.scalar >> l & 1 != 0 {
+                self.intersect(prims, batch[l], ray, tmin, near.t)
+            } else {
+                lanes.hit(l, tmin, near.t)
+            };
+            if let Some(t) = t {
+                counters.prim_hit(level);
+                if near.offer(self, t, batch[l]) && ANY_HIT {
+                    return true;
+                }
+            }
+        }
+        false
     }
 
     /// The box of store entry `s`: what `prims.bounds(self.id(s))` gives, recomputed from the

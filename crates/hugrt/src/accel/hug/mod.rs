@@ -318,14 +318,10 @@ impl Accel for Hug {
                 Prune::Large => Prune::LARGE as f64,
             },
         );
-        s.push("memory_bytes", self.memory_bytes() as f64);
-        s.push(
-            "structure_bytes_per_primitive",
-            self.grids.grid_memory_bytes() as f64 / self.prims.max(1) as f64,
-        );
-        s.push(
-            "bytes_per_primitive",
-            self.memory_bytes() as f64 / self.prims.max(1) as f64,
+        s.push_memory(
+            self.grids.grid_memory_bytes(),
+            self.memory_bytes(),
+            self.prims,
         );
         s.census = self.grids.census();
         s.levels = levels;
