@@ -104,6 +104,21 @@ struct Plane {
 
 const EMPTY_BONUS: f32 = 0.8;
 
+/// Event kinds in sweep order at one position: ends, planars, starts.
+const END: u8 = 0;
+const PLANAR: u8 = 1;
+const START: u8 = 2;
+
+/// The bits of `x` as an integer in the order of the floats (negative ones flipped).
+fn monotonic(x: f32) -> u32 {
+    let b = x.to_bits();
+    if b >> 31 != 0 { !b } else { b | 1 << 31 }
+}
+
+fn from_monotonic(m: u32) -> f32 {
+    f32::from_bits(if m >> 31 != 0 { m & !(1 << 31) } else { !m })
+}
+
 fn clip(b: &Aabb, node: &Aabb, axis: usize) -> (f32, f32) {
     (
         b.min[axis].max(node.min[axis]),
@@ -200,11 +215,12 @@ impl Builder<'_> {
         let n = items.len();
         let e = node.extent();
         let mut best: Option<Plane> = None;
-        // Event kinds in sweep order at one position: ends, planars, starts.
-        const END: u8 = 0;
-        const PLANAR: u8 = 1;
-        const START: u8 = 2;
-        let mut events: Vec<(f32, u8)> = Vec::with_capacity(2 * n);
+        // Events as integer keys: the position's bits made monotonic, then the kind, so that
+        // one integer sort orders them by position and, at one position, ends before planars
+        // before starts.
+        // (`+ 0.0` makes −0 the same position as +0.)
+        let key = |pos: f32, kind: u8| (monotonic(pos + 0.0) as u64) << 2 | kind as u64;
+        let mut events: Vec<u64> = Vec::with_capacity(2 * n);
         for axis in 0..3 {
             if e[axis].is_nan() || e[axis] <= 0.0 {
                 continue;
@@ -213,33 +229,31 @@ impl Builder<'_> {
             for &i in items {
                 let (lo, hi) = clip(&self.boxes[i as usize], node, axis);
                 if lo == hi {
-                    events.push((lo, PLANAR));
+                    events.push(key(lo, PLANAR));
                 } else {
-                    events.push((lo, START));
-                    events.push((hi, END));
+                    events.push(key(lo, START));
+                    events.push(key(hi, END));
                 }
             }
-            events.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+            events.sort_unstable();
             let (a1, a2) = ((axis + 1) % 3, (axis + 2) % 3);
             let cap = e[a1] * e[a2];
             let ring = e[a1] + e[a2];
             let (mut nl, mut nr) = (0usize, n);
             let mut k = 0;
             while k < events.len() {
-                let pos = events[k].0;
-                let (mut ends, mut planars, mut starts) = (0, 0, 0);
-                while k < events.len() && events[k].0 == pos && events[k].1 == END {
-                    ends += 1;
+                let bits = events[k] >> 2;
+                let pos = from_monotonic(bits as u32);
+                let mut count = [0usize; 3];
+                while k < events.len() && events[k] >> 2 == bits {
+                    count[(events[k] & 3) as usize] += 1;
                     k += 1;
                 }
-                while k < events.len() && events[k].0 == pos && events[k].1 == PLANAR {
-                    planars += 1;
-                    k += 1;
-                }
-                while k < events.len() && events[k].0 == pos && events[k].1 == START {
-                    starts += 1;
-                    k += 1;
-                }
+                let [ends, planars, starts] = [
+                    count[END as usize],
+                    count[PLANAR as usize],
+                    count[START as usize],
+                ];
                 nr -= ends + planars;
                 if pos > node.min[axis] && pos < node.max[axis] {
                     let below = pos - node.min[axis];
@@ -506,5 +520,22 @@ impl Accel for KdTree {
             full_volume: t.full_volume,
         };
         s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{from_monotonic, monotonic};
+
+    #[test]
+    fn monotonic_keys_order_floats_and_come_back() {
+        let xs = [-1e30f32, -2.5, -1.0, -1e-30, 0.0, 1e-30, 1.0, 2.5, 1e30];
+        for w in xs.windows(2) {
+            assert!(monotonic(w[0]) < monotonic(w[1]), "{} < {}", w[0], w[1]);
+        }
+        for x in xs {
+            assert_eq!(from_monotonic(monotonic(x)), x);
+        }
+        assert_eq!(monotonic(-0.0 + 0.0), monotonic(0.0));
     }
 }
