@@ -23,8 +23,14 @@
 //! a nearer hit beyond it. A ray lying in a splitting plane (0·∞) visits one side, which holds
 //! everything on the plane.
 //!
-//! Not here yet (issue 7): Havran's `O(n log n)` build with events sorted once, his
-//! empty-space cutting (§4.2.2, eq. 7–8) and the cache-sensitive layouts of §4.3.
+//! Layouts (`layout`, Havran §4.3): the same tree with its nodes placed depth first (default),
+//! breadth first, scattered (pairs shuffled, as individually allocated nodes would lie) or as
+//! compact subtrees packed into 64-byte cache lines. Children are always stored in pairs, so
+//! an inner node holds one child index.
+//!
+//! Not here yet (issue 7): Havran's `O(n log n)` build with events sorted once (tried: the
+//! same tree, but slower on two cores, `docs/measurements.md`) and his empty-space cutting
+//! (§4.2.2, eq. 7–8).
 
 use super::store::{Nearest, PrimStore, finite};
 use super::{
@@ -42,13 +48,49 @@ const MAX_DEPTH: usize = 64;
 /// Leaf marker in [`KdNode::a`]'s two low bits.
 const LEAF: u32 = 3;
 
-/// Eight bytes. Inner: `a` = axis | index of the child above the plane << 2 (the child below
-/// follows its parent), `b` = the plane's `f32` bits. Leaf: `a` = 3 | count << 2, `b` = first
-/// reference.
-#[derive(Clone, Copy)]
+/// Eight bytes. Inner: `a` = axis | a child's index << 2, `b` = the plane's `f32` bits: in
+/// the depth-first layout the child below the plane follows its parent and the index is the
+/// child above; in the others children are stored in pairs and the index is the child below,
+/// the child above the next one. Leaf: `a` = 3 | count << 2, `b` = first reference.
+#[derive(Clone, Copy, Default)]
 struct KdNode {
     a: u32,
     b: u32,
+}
+
+/// Eight nodes in one 64-byte cache line: the nodes are stored line by line, so that a layout
+/// can place a subtree in one line (Havran §4.3).
+#[derive(Clone, Copy, Default)]
+#[repr(C, align(64))]
+struct Line([KdNode; 8]);
+
+/// Where the nodes lie in memory (Havran §4.3).
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+enum Layout {
+    /// Depth first: a node, its subtree below the plane, then its subtree above.
+    DepthFirst,
+    /// Breadth first, level after level.
+    BreadthFirst,
+    /// Pairs scattered at random, as individually allocated nodes would be.
+    Scattered,
+    /// Compact subtrees: from a root at the start of a cache line, its descendants breadth
+    /// first in the same line while a pair fits; the pairs that do not start lines of their
+    /// own.
+    Subtrees,
+}
+
+/// The tree before it is laid out: children explicit.
+enum Logical {
+    Leaf {
+        start: u32,
+        count: u32,
+    },
+    Inner {
+        axis: u32,
+        split: f32,
+        below: usize,
+        above: usize,
+    },
 }
 
 #[derive(Clone, Copy, PartialEq, Eq)]
@@ -58,7 +100,10 @@ enum SplitRule {
 }
 
 pub struct KdTree {
-    nodes: Vec<KdNode>,
+    lines: Vec<Line>,
+    /// Nodes in the tree (the lines may hold unused slots).
+    nodes: usize,
+    layout: Layout,
     refs: Vec<u32>,
     store: PrimStore,
     bounds: Aabb,
@@ -287,15 +332,21 @@ impl Builder<'_> {
 }
 
 impl KdTree {
-    /// Flattens depth first: a node, its subtree below the plane, then above.
-    fn emit(&mut self, node: BuildNode, cell: Aabb, depth: usize) {
+    /// The build's tree as logical nodes (index 0 the root); leaves' references appended.
+    fn flatten(
+        &mut self,
+        node: BuildNode,
+        cell: Aabb,
+        depth: usize,
+        out: &mut Vec<Logical>,
+    ) -> usize {
+        let id = out.len();
         match node {
             BuildNode::Leaf(mut items) => {
                 items.sort_unstable();
-                let start = self.refs.len() as u32;
-                self.nodes.push(KdNode {
-                    a: LEAF | (items.len() as u32) << 2,
-                    b: start,
+                out.push(Logical::Leaf {
+                    start: self.refs.len() as u32,
+                    count: items.len() as u32,
                 });
                 self.stats.leaves += 1;
                 self.stats.max_depth = self.stats.max_depth.max(depth);
@@ -312,21 +363,142 @@ impl KdTree {
                 split,
                 children,
             } => {
-                let index = self.nodes.len();
-                self.nodes.push(KdNode {
-                    a: axis as u32,
-                    b: split.to_bits(),
-                });
+                out.push(Logical::Leaf { start: 0, count: 0 });
                 let [below, above] = *children;
                 let (mut lo, mut hi) = (cell, cell);
                 lo.max[axis] = split;
                 hi.min[axis] = split;
-                self.emit(below, lo, depth + 1);
-                let above_index = self.nodes.len() as u32;
-                self.nodes[index].a |= above_index << 2;
-                self.emit(above, hi, depth + 1);
+                let b = self.flatten(below, lo, depth + 1, out);
+                let a = self.flatten(above, hi, depth + 1, out);
+                out[id] = Logical::Inner {
+                    axis: axis as u32,
+                    split,
+                    below: b,
+                    above: a,
+                };
             }
         }
+        id
+    }
+
+    /// Places the logical nodes in memory by `layout` and writes them.
+    fn lay_out(&mut self, tree: &[Logical]) {
+        let n = tree.len();
+        let mut slot = vec![u32::MAX; n];
+        let mut next = 1u32;
+        slot[0] = 0;
+        let children = |id: usize| match tree[id] {
+            Logical::Inner { below, above, .. } => Some((below, above)),
+            Logical::Leaf { .. } => None,
+        };
+        match self.layout {
+            Layout::DepthFirst => {
+                let mut stack = vec![0usize];
+                next = 0;
+                while let Some(id) = stack.pop() {
+                    slot[id] = next;
+                    next += 1;
+                    if let Some((b, a)) = children(id) {
+                        stack.push(a);
+                        stack.push(b);
+                    }
+                }
+            }
+            Layout::Scattered => {
+                let mut stack = vec![0usize];
+                while let Some(id) = stack.pop() {
+                    if let Some((b, a)) = children(id) {
+                        slot[b] = next;
+                        slot[a] = next + 1;
+                        next += 2;
+                        stack.push(a);
+                        stack.push(b);
+                    }
+                }
+            }
+            Layout::BreadthFirst => {
+                let mut queue = std::collections::VecDeque::from([0usize]);
+                while let Some(id) = queue.pop_front() {
+                    if let Some((b, a)) = children(id) {
+                        slot[b] = next;
+                        slot[a] = next + 1;
+                        next += 2;
+                        queue.push_back(b);
+                        queue.push_back(a);
+                    }
+                }
+            }
+            Layout::Subtrees => {
+                // Lines are filled from subtree roots; a pair that does not fit in the line
+                // of its parent starts a new line, whose subtree is laid out later.
+                let mut lines = std::collections::VecDeque::from([vec![0usize]]);
+                next = 0;
+                while let Some(roots) = lines.pop_front() {
+                    let line_start = next.next_multiple_of(8);
+                    next = line_start;
+                    for &r in &roots {
+                        slot[r] = next;
+                        next += 1;
+                    }
+                    let mut queue: std::collections::VecDeque<usize> = roots.into();
+                    while let Some(id) = queue.pop_front() {
+                        if let Some((b, a)) = children(id) {
+                            if next + 2 <= line_start + 8 {
+                                slot[b] = next;
+                                slot[a] = next + 1;
+                                next += 2;
+                                queue.push_back(b);
+                                queue.push_back(a);
+                            } else {
+                                lines.push_back(vec![b, a]);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        if self.layout == Layout::Scattered {
+            // Pairs (slots 2k+1, 2k+2) shuffled with a fixed seed; the root stays first.
+            use rand::{SeedableRng, seq::SliceRandom};
+            let pairs = (next as usize - 1) / 2;
+            let mut order: Vec<u32> = (0..pairs as u32).collect();
+            order.shuffle(&mut rand_pcg::Pcg64Mcg::seed_from_u64(7));
+            for s in slot.iter_mut().skip(1) {
+                let k = (*s - 1) / 2;
+                *s = 1 + 2 * order[k as usize] + (*s - 1) % 2;
+            }
+        }
+        let total = slot.iter().map(|&s| s as usize + 1).max().unwrap_or(1);
+        self.lines = vec![Line::default(); total.div_ceil(8)];
+        for (id, node) in tree.iter().enumerate() {
+            let s = slot[id] as usize;
+            self.lines[s / 8].0[s % 8] = match *node {
+                Logical::Leaf { start, count } => KdNode {
+                    a: LEAF | count << 2,
+                    b: start,
+                },
+                Logical::Inner {
+                    axis,
+                    split,
+                    below,
+                    above,
+                } => KdNode {
+                    a: axis
+                        | if self.layout == Layout::DepthFirst {
+                            slot[above]
+                        } else {
+                            slot[below]
+                        } << 2,
+                    b: split.to_bits(),
+                },
+            };
+        }
+        self.nodes = n;
+    }
+
+    #[inline(always)]
+    fn node(&self, i: u32) -> KdNode {
+        self.lines[(i >> 3) as usize].0[(i & 7) as usize]
     }
 }
 
@@ -348,6 +520,10 @@ impl Accel for KdTree {
         (
             "traversal",
             "sah: cost of a traversal step relative to a primitive test, 0..100 (default 0.75)",
+        ),
+        (
+            "layout",
+            "nodes in memory (Havran 4.3): depth-first (default), breadth-first, scattered, subtrees (packed in 64-byte lines)",
         ),
     ];
 
@@ -396,16 +572,29 @@ impl Accel for KdTree {
             budget: AtomicUsize::new(63 * items.len() + 4096),
         };
         let root = builder.build(items, bounds, 0);
+        let layout = match spec.choice(
+            "layout",
+            &["depth-first", "breadth-first", "scattered", "subtrees"],
+            "depth-first",
+        )? {
+            "breadth-first" => Layout::BreadthFirst,
+            "scattered" => Layout::Scattered,
+            "subtrees" => Layout::Subtrees,
+            _ => Layout::DepthFirst,
+        };
         let mut tree = KdTree {
-            nodes: Vec::new(),
+            lines: Vec::new(),
+            nodes: 0,
+            layout,
             refs: Vec::new(),
             store,
             bounds,
             rule,
             stats: TreeStats::default(),
         };
-        tree.emit(root, bounds, 0);
-        tree.nodes.shrink_to_fit();
+        let mut logical = Vec::new();
+        tree.flatten(root, bounds, 0, &mut logical);
+        tree.lay_out(&logical);
         tree.refs.shrink_to_fit();
         Ok(tree)
     }
@@ -427,18 +616,22 @@ impl Accel for KdTree {
         let d = ray.dir.to_array();
         let inv = pr.inv_dir.to_array();
         let mut mail = Mailbox::default();
+        let pairs = self.layout != Layout::DepthFirst;
         let mut stack = [(0u32, 0f32, 0f32); 2 * MAX_DEPTH + 2];
         let mut top = 0;
         let (mut node, mut tn, mut tf) = (0u32, t0, t1);
         loop {
             if tn <= near.t {
                 counters.cell_visit(0);
-                let kd = self.nodes[node as usize];
+                let kd = self.node(node);
                 if kd.a & 3 != LEAF {
                     let axis = (kd.a & 3) as usize;
                     let split = f32::from_bits(kd.b);
-                    let below = node + 1;
-                    let above = kd.a >> 2;
+                    let (below, above) = if pairs {
+                        (kd.a >> 2, (kd.a >> 2) + 1)
+                    } else {
+                        (node + 1, kd.a >> 2)
+                    };
                     let below_first = o[axis] < split || (o[axis] == split && d[axis] <= 0.0);
                     let (first, second) = if below_first {
                         (below, above)
@@ -488,7 +681,7 @@ impl Accel for KdTree {
 
     fn memory_bytes(&self) -> usize {
         std::mem::size_of::<Self>()
-            + self.nodes.capacity() * std::mem::size_of::<KdNode>()
+            + self.lines.capacity() * std::mem::size_of::<Line>()
             + self.refs.capacity() * 4
             + self.store.memory_bytes()
     }
@@ -498,7 +691,9 @@ impl Accel for KdTree {
         let t = &self.stats;
         let mut s = StructureStats::default();
         s.push("split_mid", (self.rule == SplitRule::Mid) as u8 as f64);
-        s.push("nodes", self.nodes.len() as f64);
+        s.push("layout", self.layout as u8 as f64);
+        s.push("cache_lines", self.lines.len() as f64);
+        s.push("nodes", self.nodes as f64);
         s.push("leaves", t.leaves as f64);
         s.push("empty_leaves", t.empty_leaves as f64);
         s.push("max_depth", t.max_depth as f64);
@@ -509,12 +704,12 @@ impl Accel for KdTree {
         s.push("references", self.refs.len() as f64);
         s.push("references_per_object", self.refs.len() as f64 / n);
         s.push_memory(
-            self.nodes.capacity() * std::mem::size_of::<KdNode>() + self.refs.capacity() * 4,
+            self.lines.capacity() * std::mem::size_of::<Line>() + self.refs.capacity() * 4,
             self.memory_bytes(),
             self.store.len(),
         );
         s.census = CellCensus {
-            cells: self.nodes.len(),
+            cells: self.nodes,
             full_cells: t.leaves - t.empty_leaves,
             object_refs: self.refs.len(),
             full_volume: t.full_volume,

@@ -37,7 +37,10 @@ pub fn specs() -> Vec<String> {
             "bvh:leaf=1",
             "bvh:leaf=16,bins=2,traversal=0",
             "bvh:simd=false",
-            "kdtree:split=mid",
+            "kdtree:split=mid,layout=subtrees",
+            "kdtree:layout=breadth-first",
+            "kdtree:layout=scattered",
+            "kdtree:layout=subtrees",
             "kdtree:split=mid,leaf=1,depth=20",
             "kdtree:traversal=0,depth=40",
             // The portable path, where the others test triangles eight at a time.
