@@ -28,9 +28,15 @@
 //! compact subtrees packed into 64-byte cache lines. Children are always stored in pairs, so
 //! an inner node holds one child index.
 //!
+//! Cutting off empty space (`cut=true`, Havran §4.2.2, eq. 7–8): a node of one primitive is
+//! split too when a plane at the primitive's box, leaving the other side empty, costs less
+//! than the test by the cost above (with the traversal cost 0.75 and the empty side's 0.8,
+//! when the primitive's slab holds under ~31% of the node's surface: Havran finds it pays
+//! under 25–40%). Off by default: it measured ×0.93–1.12, within the noise, as Havran found
+//! (1–7%).
+//!
 //! Not here yet (issue 7): Havran's `O(n log n)` build with events sorted once (tried: the
-//! same tree, but slower on two cores, `docs/measurements.md`) and his empty-space cutting
-//! (§4.2.2, eq. 7–8).
+//! same tree, but slower on two cores, `docs/measurements.md`).
 
 use super::store::{Nearest, PrimStore, finite};
 use super::{
@@ -135,6 +141,8 @@ struct Builder<'a> {
     leaf_size: usize,
     max_depth: usize,
     traversal_cost: f32,
+    /// Havran's cutting off empty space around single primitives (§4.2.2).
+    cut: bool,
     /// References still allowed beyond one per primitive.
     budget: AtomicUsize,
 }
@@ -174,7 +182,9 @@ fn clip(b: &Aabb, node: &Aabb, axis: usize) -> (f32, f32) {
 impl Builder<'_> {
     fn build(&self, items: Vec<u32>, node: Aabb, depth: usize) -> BuildNode {
         let n = items.len();
-        if n <= 1 || depth >= self.max_depth {
+        // One primitive is a leaf, unless cutting off empty space may pay (`cut`).
+        let single_cut = n == 1 && self.cut && self.rule == SplitRule::Sah;
+        if (n <= 1 && !single_cut) || depth >= self.max_depth {
             return BuildNode::Leaf(items);
         }
         let plane = match self.rule {
@@ -522,6 +532,10 @@ impl Accel for KdTree {
             "sah: cost of a traversal step relative to a primitive test, 0..100 (default 0.75)",
         ),
         (
+            "cut",
+            "sah: true cuts off the empty space around single primitives when eq. 3 says it pays (Havran 4.2.2; default false)",
+        ),
+        (
             "layout",
             "nodes in memory (Havran 4.3): depth-first (default), breadth-first, scattered, subtrees (packed in 64-byte lines)",
         ),
@@ -540,6 +554,7 @@ impl Accel for KdTree {
         };
         let max_depth = spec.usize_in("depth", default_depth.min(MAX_DEPTH), 1, MAX_DEPTH)?;
         let traversal_cost = spec.f32_in("traversal", 0.75, 0.0, 100.0)?;
+        let cut = spec.bool("cut", false)?;
         if n >= 1 << 30 {
             return Err(SpecError::Build(format!(
                 "{n} primitives: the kdtree holds at most 2^30-1"
@@ -569,6 +584,7 @@ impl Accel for KdTree {
             leaf_size: if rule == SplitRule::Mid { leaf_size } else { 1 },
             max_depth,
             traversal_cost,
+            cut,
             budget: AtomicUsize::new(63 * items.len() + 4096),
         };
         let root = builder.build(items, bounds, 0);

@@ -41,6 +41,7 @@ pub fn specs() -> Vec<String> {
             "kdtree:layout=breadth-first",
             "kdtree:layout=scattered",
             "kdtree:layout=subtrees",
+            "kdtree:cut=true",
             "kdtree:split=mid,leaf=1,depth=20",
             "kdtree:traversal=0,depth=40",
             // The portable path, where the others test triangles eight at a time.
