@@ -683,6 +683,8 @@ impl Accel for Bvh {
         s.push("bins", self.bins as f64);
         s.push("nodes", self.nodes.len() as f64);
         s.push("leaves", leaves as f64);
+        // Every leaf holds at least one primitive: the build never makes an empty one.
+        s.push("empty_leaves", 0.0);
         s.push("max_depth", self.stats.max_depth as f64);
         s.push(
             "mean_leaf_depth",
