@@ -85,7 +85,7 @@ pub fn run(o: Options) -> Result<()> {
         rows.extend(r);
     }
     bar.finish_and_clear();
-    print_table(&rows);
+    print_table(&rows)?;
     if let Some(path) = &o.json {
         std::fs::write(path, serde_json::to_string_pretty(&rows)? + "\n")
             .with_context(|| format!("writing {}", path.display()))?;
@@ -112,17 +112,17 @@ pub fn run(o: Options) -> Result<()> {
     Ok(())
 }
 
-fn print_table(rows: &[BenchRow]) {
-    println!(
+fn print_table(rows: &[BenchRow]) -> Result<()> {
+    say!(
         "| scene | prims | structure | build ms (min–max) | trace ms (min–max) | Mrays/s | B/prim | N_C | R_ETNC | N_ADC | N_AOIFC | R_FVWV | N_RPRT | N_AT | T_TT/T_TR | #pit #pi #bbi #vt per ray | differ |"
     );
-    println!(
+    say!(
         "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"
     );
     for r in rows {
         let s = &r.septet;
         let c = &r.per_ray;
-        println!(
+        say!(
             "| {} | {} | {} | {:.1} ({:.1}–{:.1}) | {:.1} ({:.1}–{:.1}) | {:.2} | {:.1} | {} | {:.3} | {:.2} | {:.2} | {:.3} | {:.2} | {:.2} | {} | {:.2} {:.3} {:.2} {:.2} | {} {} |",
             r.scene,
             r.primitives,
@@ -155,18 +155,24 @@ fn print_table(rows: &[BenchRow]) {
     }
     let deep: Vec<&BenchRow> = rows.iter().filter(|r| r.per_ray_levels.len() > 1).collect();
     if !deep.is_empty() {
-        println!();
-        println!("| scene | structure | level | #pit | #pi | #bbi | #vt |");
-        println!("| --- | --- | --- | --- | --- | --- | --- |");
+        say!();
+        say!("| scene | structure | level | #pit | #pi | #bbi | #vt |");
+        say!("| --- | --- | --- | --- | --- | --- | --- |");
         for r in deep {
             for (l, c) in r.per_ray_levels.iter().enumerate() {
-                println!(
+                say!(
                     "| {} | {} | {l} | {:.2} | {:.3} | {:.2} | {:.2} |",
-                    r.scene, r.structure, c.pit, c.pi, c.bbi, c.vt
+                    r.scene,
+                    r.structure,
+                    c.pit,
+                    c.pi,
+                    c.bbi,
+                    c.vt
                 );
             }
         }
     }
+    Ok(())
 }
 
 /// One CSV record per row: the table's columns, flat, with the per-level counters left to

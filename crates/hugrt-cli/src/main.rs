@@ -1,6 +1,15 @@
 //! `hugrt`: the command line over the hugrt library. It parses arguments, calls the library
 //! and prints; no algorithm lives here.
 
+/// `println!` that returns the write's error instead of panicking, so that a closed pipe
+/// (`hugrt stats ... | head`) reaches `main` as an error, which ends the command quietly.
+macro_rules! say {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        writeln!(std::io::stdout().lock(), $($arg)*)?
+    }};
+}
+
 mod bench;
 mod report;
 
@@ -192,8 +201,15 @@ enum RayKind {
 const DEFAULT_RADIUS: &str = "0.002";
 
 fn main() {
-    quiet_on_broken_pipe();
     if let Err(e) = run(Cli::parse()) {
+        // The reader went away (`hugrt stats ... | head`): nothing more to say to anyone.
+        let closed_pipe = e.chain().any(|c| {
+            c.downcast_ref::<std::io::Error>()
+                .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+        });
+        if closed_pipe {
+            std::process::exit(0);
+        }
         eprintln!("hugrt: error: {e:#}");
         std::process::exit(1);
     }
@@ -208,30 +224,12 @@ fn check_radius(r: f32) -> Result<()> {
     Ok(())
 }
 
-/// `hugrt stats ... | head` closes the pipe early; `println!` then panics. Leave quietly, as
-/// command-line tools do on a broken pipe, and keep every other panic's message.
-fn quiet_on_broken_pipe() {
-    let default = std::panic::take_hook();
-    std::panic::set_hook(Box::new(move |info| {
-        let message = info
-            .payload()
-            .downcast_ref::<String>()
-            .map(String::as_str)
-            .or_else(|| info.payload().downcast_ref::<&str>().copied())
-            .unwrap_or("");
-        if message.starts_with("failed printing to stdout") && message.contains("Broken pipe") {
-            std::process::exit(0);
-        }
-        default(info);
-    }));
-}
-
 /// Prints the papers' counters per ray and per hierarchy level.
-fn print_counters(c: &hugrt::accel::RayCounters, rays: u64) {
+fn print_counters(c: &hugrt::accel::RayCounters, rays: u64) -> Result<()> {
     let per = |x: u64| x as f64 / rays.max(1) as f64;
-    println!("per ray      #pit      #pi     #bbi      #vt");
+    say!("per ray      #pit      #pi     #bbi      #vt");
     for (level, l) in c.used_levels().iter().enumerate() {
-        println!(
+        say!(
             "level {level}  {:8.2} {:8.3} {:8.2} {:8.2}",
             per(l.pit),
             per(l.pi),
@@ -239,6 +237,7 @@ fn print_counters(c: &hugrt::accel::RayCounters, rays: u64) {
             per(l.vt)
         );
     }
+    Ok(())
 }
 
 /// Loads a scene file or generates a built-in one ([`Scene::open`]).
@@ -315,13 +314,13 @@ fn run(cli: Cli) -> Result<()> {
                 bar.finish_and_clear();
                 out.image.save(&output).with_context(|| format!("writing {}", output.display()))?;
                 let c = out.counts;
-                println!("scene {name}: {} primitives, {} lights; structure {} ({})", scene.shapes.len(), scene.lights.len(), acc.name(), accel);
-                println!("load {load_s:.3} s, build {build_s:.3} s, render {render_s:.3} s ({:.2} Mrays/s)", c.total_rays() as f64 / render_s / 1e6);
-                println!("eye rays {} (hit {}), shadow rays {} (blocked {}, in a penumbra {}), reflected {}, refracted {}, secondary hits {}",
+                say!("scene {name}: {} primitives, {} lights; structure {} ({})", scene.shapes.len(), scene.lights.len(), acc.name(), accel);
+                say!("load {load_s:.3} s, build {build_s:.3} s, render {render_s:.3} s ({:.2} Mrays/s)", c.total_rays() as f64 / render_s / 1e6);
+                say!("eye rays {} (hit {}), shadow rays {} (blocked {}, in a penumbra {}), reflected {}, refracted {}, secondary hits {}",
                     c.eye_rays, c.eye_hits, c.shadow_rays, c.shadow_hits, c.penumbra_rays, c.reflected_rays, c.refracted_rays, c.secondary_hits);
-                println!("wrote {}", output.display());
+                say!("wrote {}", output.display());
                 if let Some(k) = &out.counters {
-                    print_counters(k, c.total_rays());
+                    print_counters(k, c.total_rays())?;
                 }
                 if let Some(path) = stats_json {
                     let mut j = serde_json::to_value(c)?;
@@ -382,7 +381,7 @@ fn run(cli: Cli) -> Result<()> {
             );
             if counters {
                 let c = hugrt::batch::count(&scene, &acc, &ray_list, any_hit);
-                print_counters(&c, ray_list.len() as u64);
+                print_counters(&c, ray_list.len() as u64)?;
             }
             Ok(())
         }),
@@ -402,10 +401,10 @@ fn run(cli: Cli) -> Result<()> {
                     "structure": st.entries.iter().map(|(k, v)| (k.clone(), serde_json::json!(v))).collect::<serde_json::Map<_, _>>(),
                     "levels": st.levels,
                 });
-                println!("{}", serde_json::to_string_pretty(&j)?);
+                say!("{}", serde_json::to_string_pretty(&j)?);
             } else {
-                report::print_scene_stats(&name, &s, scene.memory_bytes());
-                report::print_structure_stats(&accel, build_s, &st);
+                report::print_scene_stats(&name, &s, scene.memory_bytes())?;
+                report::print_structure_stats(&accel, build_s, &st)?;
             }
             Ok(())
         }
@@ -441,7 +440,7 @@ fn run(cli: Cli) -> Result<()> {
             write(&scene, &mut w)
                 .and_then(|()| std::io::Write::flush(&mut w))
                 .with_context(|| format!("writing {}", output.display()))?;
-            println!(
+            say!(
                 "{kind} (size {size}, seed {seed}): {} primitives, {} lights -> {}",
                 scene.shapes.len(),
                 scene.lights.len(),

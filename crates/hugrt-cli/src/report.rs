@@ -4,43 +4,45 @@
 use hugrt::accel::StructureStats;
 use hugrt::stats::SceneStats;
 
-pub fn print_scene_stats(name: &str, s: &SceneStats, memory_bytes: usize) {
-    println!("scene {name}");
-    println!("  objects             {}", s.objects);
-    println!("  scene diagonal      {:.6}", s.scene_diagonal);
-    println!(
+pub fn print_scene_stats(name: &str, s: &SceneStats, memory_bytes: usize) -> anyhow::Result<()> {
+    say!("scene {name}");
+    say!("  objects             {}", s.objects);
+    say!("  scene diagonal      {:.6}", s.scene_diagonal);
+    say!(
         "  min / max length    {:.3e} / {:.3e}",
-        s.min_length, s.max_length
+        s.min_length,
+        s.max_length
     );
-    println!("  min/max             {:.3e}", s.min_over_max);
-    println!("  min/diag            {:.3e}", s.min_over_diagonal);
-    println!("  %.2                 {:.1}%", s.percent_below_0_2);
-    println!("  length histogram (fraction of max length, 10 bins):");
+    say!("  min/max             {:.3e}", s.min_over_max);
+    say!("  min/diag            {:.3e}", s.min_over_diagonal);
+    say!("  %.2                 {:.1}%", s.percent_below_0_2);
+    say!("  length histogram (fraction of max length, 10 bins):");
     for (k, c) in s.histogram.iter().enumerate() {
-        println!(
+        say!(
             "    [{:.1}, {:.1})  {c}",
             k as f32 / 10.0,
             (k + 1) as f32 / 10.0
         );
     }
-    println!("  primitive memory    {memory_bytes} bytes");
+    say!("  primitive memory    {memory_bytes} bytes");
+    Ok(())
 }
 
-pub fn print_structure_stats(spec: &str, build_s: f64, st: &StructureStats) {
-    println!("structure {spec} (built in {:.1} ms)", build_s * 1e3);
+pub fn print_structure_stats(spec: &str, build_s: f64, st: &StructureStats) -> anyhow::Result<()> {
+    say!("structure {spec} (built in {:.1} ms)", build_s * 1e3);
     for (k, v) in &st.entries {
         let v = if v.fract() == 0.0 {
             format!("{v}")
         } else {
             format!("{v:.4}")
         };
-        println!("  {k:<31} {v}");
+        say!("  {k:<31} {v}");
     }
     if st.levels.is_empty() {
-        return;
+        return Ok(());
     }
-    println!("per level (SCG97 3; level 0 is the root grid):");
-    println!(
+    say!("per level (SCG97 3; level 0 is the root grid):");
+    say!(
         "  {:>5} {:>6} {:>9} {:>9} {:>9} {:>6} {:>6} {:>7} {:>6} {:>7} {:>10}",
         "level",
         "grids",
@@ -55,7 +57,7 @@ pub fn print_structure_stats(spec: &str, build_s: f64, st: &StructureStats) {
         "bytes"
     );
     for l in &st.levels {
-        println!(
+        say!(
             "  {:>5} {:>6} {:>9} {:>9} {:>9} {:>6.2} {:>6.2} {:>7.2} {:>6.2} {:>7.2} {:>10}",
             l.level,
             l.grids,
@@ -70,7 +72,7 @@ pub fn print_structure_stats(spec: &str, build_s: f64, st: &StructureStats) {
             l.memory_bytes
         );
     }
-    println!(
+    say!(
         "  {:>5} {:>7} {:>6} {:>7} {:>7} {:>7} {:>7} {:>6} {:>7} {:>7} {:>7} {:>7}",
         "level",
         "μo_g",
@@ -86,7 +88,7 @@ pub fn print_structure_stats(spec: &str, build_s: f64, st: &StructureStats) {
         "σg'_v"
     );
     for l in &st.levels {
-        println!(
+        say!(
             "  {:>5} {:>7.2} {:>6.2} {:>7.3} {:>7.3} {:>7.3} {:>7.3} {:>6.2} {:>7.3} {:>7.3} {:>7.3} {:>7.3}",
             l.level,
             l.mu_o_g,
@@ -102,4 +104,5 @@ pub fn print_structure_stats(spec: &str, build_s: f64, st: &StructureStats) {
             l.sigma_g_v_nonempty
         );
     }
+    Ok(())
 }

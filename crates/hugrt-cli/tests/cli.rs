@@ -347,3 +347,19 @@ fn bench_rejects_a_bad_light_radius_and_unknown_structure() {
     assert!(!o.status.success());
     assert!(stderr(&o).contains("octopus"), "{}", stderr(&o));
 }
+
+/// A reader that goes away (`hugrt stats ... | head`) ends the command quietly: exit 0, no
+/// panic message. The pipe is closed before the scene is even generated.
+#[test]
+fn closed_stdout_ends_quietly() {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_hugrt"))
+        .args(["stats", "builtin:kitchen"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("hugrt runs");
+    drop(child.stdout.take());
+    let o = child.wait_with_output().unwrap();
+    assert!(o.status.success(), "{:?}: {}", o.status, stderr(&o));
+    assert!(stderr(&o).is_empty(), "{}", stderr(&o));
+}
