@@ -51,15 +51,8 @@ enum Command {
         output: PathBuf,
         #[arg(long, default_value = "hug", help = ACCEL_HELP)]
         accel: String,
-        /// Image width (default: the scene's resolution).
-        #[arg(long)]
-        width: Option<u32>,
-        /// Image height (default: the scene's resolution).
-        #[arg(long)]
-        height: Option<u32>,
-        /// Bounces after the eye ray (SPD: 4).
-        #[arg(long, default_value_t = 4)]
-        depth: u32,
+        #[command(flatten)]
+        image: ImageArgs,
         /// Worker threads (default: all cores).
         #[arg(long)]
         threads: Option<usize>,
@@ -69,10 +62,6 @@ enum Command {
         /// Also count ray-primitive tests, ray-box tests and cells visited per level (slower).
         #[arg(long)]
         counters: bool,
-        /// Single-sample soft shadows (Parker, Shirley, Smits) from spherical lights of this
-        /// radius, as a fraction of the scene's diagonal (0.002 when given without a value).
-        #[arg(long, value_name = "RADIUS", num_args = 0..=1, default_missing_value = DEFAULT_RADIUS)]
-        soft_shadows: Option<f32>,
         /// No progress bar.
         #[arg(short, long)]
         quiet: bool,
@@ -159,18 +148,9 @@ enum Command {
         /// Camera rays: image side (side² rays).
         #[arg(long, default_value_t = 1024)]
         camera: u32,
-        /// Whitted: image width (default: the scene's resolution).
-        #[arg(long)]
-        width: Option<u32>,
-        /// Whitted: image height (default: the scene's resolution).
-        #[arg(long)]
-        height: Option<u32>,
-        /// Whitted: bounces after the eye ray (SPD: 4).
-        #[arg(long, default_value_t = 4)]
-        depth: u32,
-        /// Whitted: soft shadows with this light radius (fraction of the scene's diagonal).
-        #[arg(long, value_name = "RADIUS", num_args = 0..=1, default_missing_value = DEFAULT_RADIUS)]
-        soft_shadows: Option<f32>,
+        /// The Whitted rendering's image.
+        #[command(flatten)]
+        image: ImageArgs,
         /// Worker threads (default: all cores).
         #[arg(long)]
         threads: Option<usize>,
@@ -187,6 +167,49 @@ enum Command {
         #[arg(short, long)]
         quiet: bool,
     },
+}
+
+/// The image of an SPD rendering (`render`, and `bench --rays whitted`).
+#[derive(clap::Args, Clone, Copy)]
+struct ImageArgs {
+    /// Image width (default: the scene's resolution).
+    #[arg(long)]
+    width: Option<u32>,
+    /// Image height (default: the scene's resolution).
+    #[arg(long)]
+    height: Option<u32>,
+    /// Bounces after the eye ray (SPD: 4).
+    #[arg(long, default_value_t = 4)]
+    depth: u32,
+    /// Single-sample soft shadows (Parker, Shirley, Smits) from spherical lights of this
+    /// radius, as a fraction of the scene's diagonal (0.002 when given without a value).
+    #[arg(long, value_name = "RADIUS", num_args = 0..=1, default_missing_value = DEFAULT_RADIUS)]
+    soft_shadows: Option<f32>,
+}
+
+impl ImageArgs {
+    /// Rejects a bad light radius or image side before any work.
+    fn check(&self) -> Result<()> {
+        if let Some(r) = self.soft_shadows
+            && !(r.is_finite() && r >= 0.0)
+        {
+            bail!(
+                "--soft-shadows {r}: the light radius must be a finite fraction of the diagonal, 0 or more"
+            );
+        }
+        for side in [self.width, self.height].into_iter().flatten() {
+            check_side(side)?;
+        }
+        Ok(())
+    }
+}
+
+/// An image side hugrt accepts.
+fn check_side(side: u32) -> Result<()> {
+    if side == 0 || side > 65536 {
+        bail!("image size: a side of {side} is not within 1..=65536");
+    }
+    Ok(())
 }
 
 /// The work `hugrt bench` measures.
@@ -213,15 +236,6 @@ fn main() {
         eprintln!("hugrt: error: {e:#}");
         std::process::exit(1);
     }
-}
-
-fn check_radius(r: f32) -> Result<()> {
-    if !(r.is_finite() && r >= 0.0) {
-        bail!(
-            "--soft-shadows {r}: the light radius must be a finite fraction of the diagonal, 0 or more"
-        );
-    }
-    Ok(())
 }
 
 /// Prints the papers' counters per ray and per hierarchy level.
@@ -268,24 +282,21 @@ fn run(cli: Cli) -> Result<()> {
             scene,
             output,
             accel,
-            width,
-            height,
-            depth,
+            image,
             threads,
             stats_json,
             counters,
-            soft_shadows,
             quiet,
         } => {
+            image.check()?;
             let name = scene.unwrap_or_else(|| "builtin:kitchen".to_string());
             pool(threads)?.install(|| {
                 let t = Instant::now();
                 let scene = load_scene(&name)?;
                 let load_s = t.elapsed().as_secs_f64();
                 let (acc, mut build_s) = build(&scene, &accel)?;
-                let soft = match soft_shadows {
+                let soft = match image.soft_shadows {
                     Some(r) => {
-                        check_radius(r)?;
                         let t = Instant::now();
                         let s = SoftShadows::build(&scene, &accel, r)?;
                         build_s += t.elapsed().as_secs_f64();
@@ -294,14 +305,13 @@ fn run(cli: Cli) -> Result<()> {
                     None => None,
                 };
                 let settings = RenderSettings {
-                    width: width.unwrap_or(scene.camera.width),
-                    height: height.unwrap_or(scene.camera.height),
-                    depth,
+                    width: image.width.unwrap_or(scene.camera.width),
+                    height: image.height.unwrap_or(scene.camera.height),
+                    depth: image.depth,
                     counters,
                 };
-                if settings.width == 0 || settings.height == 0 || settings.width.max(settings.height) > 65536 {
-                    bail!("image size {}x{} is not within 1..=65536", settings.width, settings.height);
-                }
+                check_side(settings.width)?;
+                check_side(settings.height)?;
                 let bar = ProgressBar::new(settings.height as u64 + 1);
                 bar.set_draw_target(if quiet { ProgressDrawTarget::hidden() } else { ProgressDrawTarget::stderr() });
                 bar.set_style(ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} rows {eta}")?.progress_chars("=> "));
@@ -454,10 +464,7 @@ fn run(cli: Cli) -> Result<()> {
             rays,
             ray_count,
             camera,
-            width,
-            height,
-            depth,
-            soft_shadows,
+            image,
             threads,
             repeat,
             json,
@@ -470,17 +477,16 @@ fn run(cli: Cli) -> Result<()> {
                     STRUCTURES.join(", ")
                 );
             }
-            if let Some(r) = soft_shadows {
-                check_radius(r)?;
-            }
+            image.check()?;
+            check_side(camera)?;
             let workload = match rays {
                 RayKind::Camera => Workload::Camera { side: camera },
                 RayKind::Incoherent => Workload::Incoherent { rays: ray_count },
                 RayKind::Whitted => Workload::Whitted {
-                    width,
-                    height,
-                    depth,
-                    soft_shadows,
+                    width: image.width,
+                    height: image.height,
+                    depth: image.depth,
+                    soft_shadows: image.soft_shadows,
                 },
             };
             pool(threads)?.install(|| {

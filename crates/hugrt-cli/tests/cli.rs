@@ -363,3 +363,19 @@ fn closed_stdout_ends_quietly() {
     assert!(o.status.success(), "{:?}: {}", o.status, stderr(&o));
     assert!(stderr(&o).is_empty(), "{}", stderr(&o));
 }
+
+/// `bench` checks the image it will render as `render` does, before any work.
+#[test]
+fn bench_rejects_a_bad_image_side() {
+    for args in [["--width", "0"], ["--height", "70000"], ["--camera", "0"]] {
+        let mut a = vec!["bench", "builtin:room:500", "--quiet"];
+        a.extend(args);
+        let o = hugrt(&a);
+        assert!(!o.status.success(), "{args:?}");
+        assert!(
+            stderr(&o).contains("not within 1..=65536"),
+            "{args:?}: {}",
+            stderr(&o)
+        );
+    }
+}

@@ -417,6 +417,11 @@ impl Bvh {
         }
     }
 
+    /// Bytes of the nodes and leaf references, without the store.
+    fn structure_bytes(&self) -> usize {
+        self.nodes.capacity() * std::mem::size_of::<Node>() + self.refs.capacity() * 4
+    }
+
     /// Tests a leaf's primitives (triangles eight at a time where allowed). Returns `true`
     /// when `ANY_HIT` found a hit.
     #[inline(always)]
@@ -669,10 +674,7 @@ impl Accel for Bvh {
     }
 
     fn memory_bytes(&self) -> usize {
-        std::mem::size_of::<Self>()
-            + self.nodes.capacity() * std::mem::size_of::<Node>()
-            + self.refs.capacity() * 4
-            + self.store.memory_bytes()
+        std::mem::size_of::<Self>() + self.structure_bytes() + self.store.memory_bytes()
     }
 
     fn stats(&self) -> StructureStats {
@@ -696,7 +698,7 @@ impl Accel for Bvh {
             self.refs.len() as f64 / leaves.max(1) as f64,
         );
         s.push_memory(
-            self.nodes.capacity() * std::mem::size_of::<Node>() + self.refs.capacity() * 4,
+            self.structure_bytes(),
             self.memory_bytes(),
             self.store.len(),
         );

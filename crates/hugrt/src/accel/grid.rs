@@ -97,14 +97,7 @@ impl Accel for Grid {
         let res = self.grids.resolution(0);
         let mut s = StructureStats::default();
         s.push("density", self.density as f64);
-        s.push(
-            "prune",
-            match self.prune {
-                Prune::None => 0.0,
-                Prune::All => 1.0,
-                Prune::Large => Prune::LARGE as f64,
-            },
-        );
+        s.push("prune", self.prune.stat_value());
         s.push("res_x", res[0] as f64);
         s.push("res_y", res[1] as f64);
         s.push("res_z", res[2] as f64);

@@ -162,6 +162,15 @@ pub enum Prune {
 impl Prune {
     pub const LARGE: u64 = 16;
 
+    /// The setting as `hugrt stats` reports it: 0 (false), 1 (true) or the `LARGE` threshold.
+    pub(crate) fn stat_value(self) -> f64 {
+        match self {
+            Prune::None => 0.0,
+            Prune::All => 1.0,
+            Prune::Large => Prune::LARGE as f64,
+        }
+    }
+
     pub(crate) fn from_spec(spec: &super::Spec, default: Prune) -> Result<Prune, SpecError> {
         let name = match default {
             Prune::None => "false",

@@ -506,6 +506,11 @@ impl KdTree {
         self.nodes = n;
     }
 
+    /// Bytes of the nodes and leaf references, without the store.
+    fn structure_bytes(&self) -> usize {
+        self.lines.capacity() * std::mem::size_of::<Line>() + self.refs.capacity() * 4
+    }
+
     #[inline(always)]
     fn node(&self, i: u32) -> KdNode {
         self.lines[(i >> 3) as usize].0[(i & 7) as usize]
@@ -696,10 +701,7 @@ impl Accel for KdTree {
     }
 
     fn memory_bytes(&self) -> usize {
-        std::mem::size_of::<Self>()
-            + self.lines.capacity() * std::mem::size_of::<Line>()
-            + self.refs.capacity() * 4
-            + self.store.memory_bytes()
+        std::mem::size_of::<Self>() + self.structure_bytes() + self.store.memory_bytes()
     }
 
     fn stats(&self) -> StructureStats {
@@ -720,7 +722,7 @@ impl Accel for KdTree {
         s.push("references", self.refs.len() as f64);
         s.push("references_per_object", self.refs.len() as f64 / n);
         s.push_memory(
-            self.lines.capacity() * std::mem::size_of::<Line>() + self.refs.capacity() * 4,
+            self.structure_bytes(),
             self.memory_bytes(),
             self.store.len(),
         );

@@ -310,14 +310,7 @@ impl Accel for Hug {
         s.push("cells", self.grids.cell_count() as f64);
         s.push("references", self.grids.reference_count() as f64);
         s.push("sum_pct_vol", levels.iter().map(|l| l.pct_vol).sum::<f64>());
-        s.push(
-            "prune",
-            match self.prune {
-                Prune::None => 0.0,
-                Prune::All => 1.0,
-                Prune::Large => Prune::LARGE as f64,
-            },
-        );
+        s.push("prune", self.prune.stat_value());
         s.push_memory(
             self.grids.grid_memory_bytes(),
             self.memory_bytes(),
