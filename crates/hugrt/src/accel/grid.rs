@@ -11,7 +11,9 @@
 //!   once it lies inside the current cell (see [`GridHierarchy::walk`]).
 
 use super::hierarchy::{GridHierarchy, GridPlan, Prune, Resolution};
-use super::{Accel, Counters, Hit, PrimStore, Primitives, Spec, SpecError, StructureStats};
+use super::{
+    Accel, CellCensus, Counters, Hit, PrimStore, Primitives, Spec, SpecError, StructureStats,
+};
 use crate::geometry::Ray;
 
 /// Default cells per primitive, chosen by measurement (`docs/measurements.md`): over two
@@ -113,7 +115,7 @@ impl Accel for Grid {
             self.memory_bytes(),
             self.prims,
         );
-        s.census = self.grids.census();
+        s.census = CellCensus::of_levels(&levels);
         s.levels = levels;
         s
     }

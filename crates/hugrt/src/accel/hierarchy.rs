@@ -37,7 +37,7 @@
 use super::simd;
 use super::sort::radix_sort_high32;
 use super::store::{Nearest, PrimStore, finite};
-use super::{CellCensus, Counters, Mailbox, Primitives, SpecError};
+use super::{Counters, Mailbox, Primitives, SpecError};
 use crate::geometry::{Aabb, PreparedRay, Vec3};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -939,31 +939,6 @@ impl GridHierarchy {
         self.grid_memory_bytes() + self.store.memory_bytes()
     }
 
-    /// The static half of Havran's septet over every grid of the hierarchy. A cell counts as
-    /// full when it holds an object reference; a cell holding only sub-grids counts as empty,
-    /// its objects being counted in the sub-grids' cells.
-    pub fn census(&self) -> CellCensus {
-        let mut c = CellCensus::default();
-        for h in &self.grids {
-            c.cells += h.cells();
-            let cell_volume = volume(h) / h.cells().max(1) as f64;
-            let first = h.first_cell as usize;
-            for cell in first..first + h.cells() {
-                let refs = self
-                    .cells
-                    .range(cell)
-                    .map_or(&[][..], |(s, e)| &self.refs[s..e]);
-                let objects = refs.iter().filter(|&&r| r & GRID_TAG == 0).count();
-                if objects > 0 {
-                    c.full_cells += 1;
-                    c.object_refs += objects;
-                    c.full_volume += cell_volume;
-                }
-            }
-        }
-        c
-    }
-
     /// The statistics of SCG97 §3 for each level of the hierarchy (level 0 = the root).
     pub fn level_stats(&self) -> Vec<GridLevelStats> {
         let levels = self
@@ -989,6 +964,7 @@ impl GridHierarchy {
             l.objects += h.objects as usize;
             l.cells += h.cells();
             l.volume += volume(h);
+            let cell_volume = volume(h) / h.cells().max(1) as f64;
             l.memory_bytes += std::mem::size_of::<GridHeader>() + h.cells().div_ceil(64) * 12;
             let first = h.first_cell as usize;
             for c in first..first + h.cells() {
@@ -1000,6 +976,10 @@ impl GridHierarchy {
                 l.memory_bytes += 4 * !refs.is_empty() as usize;
                 l.object_refs += refs.len() - g;
                 l.grid_refs += g;
+                if refs.len() > g {
+                    l.object_cells += 1;
+                    l.object_cell_volume += cell_volume;
+                }
                 objects_per_cell[d].add((refs.len() - g) as f64);
                 grids_per_cell[d].add(g as f64);
             }
@@ -1089,6 +1069,9 @@ pub struct GridLevelStats {
     pub cells: usize,
     pub object_refs: usize,
     pub grid_refs: usize,
+    /// Cells holding at least one object reference, and their summed volume.
+    pub object_cells: usize,
+    pub object_cell_volume: f64,
     /// Summed volume of the level's grids.
     pub volume: f64,
     /// Bytes of the level's grid headers, offsets, occupancy bits and references.

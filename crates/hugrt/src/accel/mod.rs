@@ -116,6 +116,22 @@ pub struct CellCensus {
     pub full_volume: f64,
 }
 
+impl CellCensus {
+    /// The census of a grid hierarchy from its levels' statistics. A cell counts as full when
+    /// it holds an object reference; a cell holding only sub-grids counts as empty, its
+    /// objects being counted in the sub-grids' cells.
+    pub fn of_levels(levels: &[GridLevelStats]) -> CellCensus {
+        levels
+            .iter()
+            .fold(CellCensus::default(), |c, l| CellCensus {
+                cells: c.cells + l.cells,
+                full_cells: c.full_cells + l.object_cells,
+                object_refs: c.object_refs + l.object_refs,
+                full_volume: c.full_volume + l.object_cell_volume,
+            })
+    }
+}
+
 impl StructureStats {
     pub fn push(&mut self, name: &str, value: f64) {
         self.entries.push((name.to_string(), value));

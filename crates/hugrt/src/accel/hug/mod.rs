@@ -35,7 +35,9 @@ pub use filter::Filter;
 
 use super::grid::check_size;
 use super::hierarchy::{GridHierarchy, Prune};
-use super::{Accel, Counters, Hit, PrimStore, Primitives, Spec, SpecError, StructureStats};
+use super::{
+    Accel, CellCensus, Counters, Hit, PrimStore, Primitives, Spec, SpecError, StructureStats,
+};
 use crate::geometry::{Aabb, Ray};
 use rayon::prelude::*;
 
@@ -316,7 +318,7 @@ impl Accel for Hug {
             self.memory_bytes(),
             self.prims,
         );
-        s.census = self.grids.census();
+        s.census = CellCensus::of_levels(&levels);
         s.levels = levels;
         s
     }
