@@ -145,7 +145,7 @@ fn errors_exit_nonzero_with_a_reason() {
         (vec!["stats", bad], "bad.nff:2: sphere: coordinate is NaN"),
         (vec!["render", bad, "--quiet"], "bad.nff:2:"),
         (vec!["stats", "/nonexistent.ply"], "/nonexistent.ply"),
-        (vec!["stats", fx, "--accel", "octree"], "brute, grid"),
+        (vec!["stats", fx, "--accel", "quadtree"], "brute, grid"),
         (vec!["stats", fx, "--accel", "grid:dens=3"], "density"),
         (vec!["stats", fx, "--accel", "grid:density=-1"], "density"),
         (

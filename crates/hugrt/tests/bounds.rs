@@ -25,6 +25,24 @@ const SPECS: &[&str] = &[
     "hug:cluster=graph,alpha=0,insert=fig9,min_cluster=1,filter=levels",
 ];
 
+/// Grids cut where crowded (`accel::hierarchy::Subdivision`): at most `2·(64·n + 4096)`
+/// references, the root's cells plus `64·n + 4096` more, levels within the depth limit.
+const CUT_GRIDS: &[(&str, f64)] = &[
+    ("rgrid", 3.0),
+    ("rgrid:maxp=1,depth=16", 16.0),
+    ("rgrid:maxp=2,hetero=false,density=8,depth=5", 5.0),
+    ("octree", 10.0),
+    ("octree:maxp=1,depth=16", 16.0),
+];
+
+/// Adaptive grids: clusters' grids within their own budgets (`64·k + 4096` references for `k`
+/// objects, `64` times the cells asked for), sub-voxel grids within the cut grids' budget.
+const ADAPTIVE_GRIDS: &[&str] = &[
+    "agrid",
+    "agrid:orphans=1,maxp=1,depth=15",
+    "agrid:f=2,m=1,maxp=2,depth=4,density=8",
+];
+
 const TREES: &[&str] = &["bvh", "bvh:leaf=1", "bvh:leaf=16,bins=2,traversal=0"];
 const KD_TREES: &[&str] = &[
     "kdtree",
@@ -58,6 +76,41 @@ fn check(scene: &Scene, rays: usize) {
         assert!(
             refs <= 64.0 * items + 4096.0 * grids,
             "{spec}: {refs} references for {items} items in {grids} grids"
+        );
+    }
+    for (spec, depth_limit) in CUT_GRIDS {
+        let a = AnyAccel::build(scene, spec).unwrap_or_else(|e| panic!("{spec}: {e}"));
+        let (cells, refs) = (stat(&a, "cells"), stat(&a, "references"));
+        let budget = 64.0 * n + 4096.0;
+        assert!(
+            refs <= 2.0 * budget,
+            "{spec}: {refs} references for {n} objects"
+        );
+        // The root asks for at most `8·n` cells and may get up to 64 times more.
+        assert!(
+            cells <= 64.0 * 8.0 * n.max(1.0) + 8.0 + budget,
+            "{spec}: {cells} cells for {n} objects"
+        );
+        let levels = stat(&a, "depth");
+        assert!(levels <= depth_limit + 1.0, "{spec}: {levels} levels");
+    }
+    for spec in ADAPTIVE_GRIDS {
+        let a = AnyAccel::build(scene, spec).unwrap_or_else(|e| panic!("{spec}: {e}"));
+        let (cells, refs) = (stat(&a, "cells"), stat(&a, "references"));
+        let (tops, density) = (stat(&a, "clusters") + 1.0, stat(&a, "density"));
+        let budget = 64.0 * n + 4096.0;
+        assert!(
+            refs <= (64.0 * n + 4096.0 * tops).max(2.0 * budget),
+            "{spec}: {refs} references for {n} objects in {tops} clusters"
+        );
+        assert!(
+            cells <= 64.0 * (density * n + tops) + budget,
+            "{spec}: {cells} cells for {n} objects"
+        );
+        let levels = stat(&a, "depth");
+        assert!(
+            levels <= stat(&a, "depth_limit") + 1.0,
+            "{spec}: {levels} levels"
         );
     }
     // The bvh: every object in exactly one leaf, fewer nodes than leaves, and a depth of at
@@ -95,6 +148,8 @@ fn check(scene: &Scene, rays: usize) {
     }
     let specs: Vec<String> = SPECS
         .iter()
+        .chain(CUT_GRIDS.iter().map(|(s, _)| s))
+        .chain(ADAPTIVE_GRIDS)
         .chain(TREES)
         .chain(KD_TREES)
         .map(|s| s.to_string())
@@ -115,6 +170,30 @@ fn thousands_of_coplanar_overlapping_triangles() {
         })
         .collect();
     check(&scene_of(shapes), 600);
+}
+
+#[test]
+fn more_than_maxp_coplanar_triangles_through_one_point_stop_the_cutting() {
+    // EG95 §1.2.2: N > MAXP coplanar polygons with a common point would be cut forever; every
+    // cell round the point holds all of them, and a cell holding all of its grid's objects is
+    // not cut again. Without that rule the octree is cut until the reference budget stops
+    // it (3 levels, 21 times the references).
+    let mut r = rng(5);
+    let shapes: Vec<Shape> = (0..200)
+        .map(|_| {
+            let a = r.random_range(0.0..std::f32::consts::TAU);
+            let p = |t: f32| Vec3::new(0.5 + 2.0 * t.cos(), 0.5 + 2.0 * t.sin(), 0.0);
+            Shape::Triangle([p(a), p(a + 2.1), p(a + 4.2)])
+        })
+        .collect();
+    let s = scene_of(shapes);
+    let a = AnyAccel::build(&s, "octree:depth=16").unwrap();
+    let (levels, refs) = (stat(&a, "depth"), stat(&a, "references"));
+    assert!(
+        levels == 1.0 && refs <= 8.0 * 200.0,
+        "{levels} levels, {refs} references"
+    );
+    check(&s, 300);
 }
 
 #[test]

@@ -5,8 +5,8 @@
 
 use serde::Serialize;
 
-/// Deepest hierarchy level counted separately; deeper levels are added to the last one.
-pub const MAX_LEVELS: usize = 8;
+/// Levels counted separately (an octree's 16 below its root); deeper ones are added to the last.
+pub const MAX_LEVELS: usize = 17;
 
 pub trait Counters {
     fn prim_test(&mut self, level: usize);

@@ -70,8 +70,10 @@ impl Accel for Grid {
             resolution: Resolution::Cubical(density as f64 * n as f64),
             frame: None,
             depth: 0,
+            scene_box: true,
         };
-        let grids = GridHierarchy::build(prims, store, &[plan], prune, spec.bool("simd", true)?)?;
+        let simd = spec.bool("simd", true)?;
+        let grids = GridHierarchy::build(prims, store, &[plan], prune, None, simd)?;
         Ok(Grid {
             grids,
             prims: n,

@@ -192,8 +192,64 @@ impl Prune {
 pub(crate) enum Resolution {
     /// About this many cells, as cubical as possible.
     Cubical(f64),
+    /// About this many cells, as many on every axis: EG95 §1.2.2's `∛` criterion,
+    /// `n_x = n_y = n_z = ∛cells` (RTNews' "regular" grids, against its heterogeneous ones
+    /// whose cells are cubes).
+    Regular(f64),
     /// Exactly these cells per axis.
     Fixed([u32; 3]),
+}
+
+impl Resolution {
+    fn cells_per_axis(self, extent: Vec3) -> [u32; 3] {
+        match self {
+            Resolution::Cubical(cells) => cubical_resolution(extent, cells),
+            Resolution::Regular(cells) => {
+                let k = cells.clamp(1.0, MAX_CELLS).cbrt().round().max(1.0) as u32;
+                [k; 3]
+            }
+            Resolution::Fixed(r) => r.map(|x| x.max(1)),
+        }
+    }
+}
+
+/// How crowded cells are gridded again, top-down: Jevans and Wyvill's recursive grid (EG95
+/// §1.2.2), EG95's simulated octree, the adaptive grid's sub-voxel grids. A cell referencing
+/// more than `maxp` objects gets a grid over its own box (the cell widened by the margin),
+/// holding those objects; the cell then references that grid instead of them, so cells of
+/// different grids never overlap and each sub-grid is walked from one cell only.
+///
+/// Termination (EG95 §1.2.2: `maxp` coplanar triangles sharing a point would recurse
+/// forever): no grid deeper than `max_depth`; a cell holding every object of its grid is not
+/// cut again (it would only repeat its grid); and the references and cells of all grids stay
+/// within `2·(64·n + 4096)` and the root's cells plus `64·n + 4096`: sub-grids are made level
+/// by level and, within a level, in cell order until the next would overflow either budget.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Subdivision {
+    pub maxp: usize,
+    pub max_depth: u32,
+    pub cells: SubCells,
+}
+
+/// Cells of the sub-grid of a cell referencing `k` objects.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum SubCells {
+    /// About `density · k` cubical cells (RTNews' heterogeneous grids).
+    Cubical(f64),
+    /// `∛(density · k)` cells on every axis (EG95's `∛` criterion).
+    Regular(f64),
+    /// The same cells per axis for every sub-grid (2×2×2: the octree).
+    Fixed([u32; 3]),
+}
+
+impl SubCells {
+    fn resolution(self, k: usize) -> Resolution {
+        match self {
+            SubCells::Cubical(d) => Resolution::Cubical(d * k as f64),
+            SubCells::Regular(d) => Resolution::Regular(d * k as f64),
+            SubCells::Fixed(r) => Resolution::Fixed(r),
+        }
+    }
 }
 
 /// One grid to build: what it holds and how finely it is cut.
@@ -206,6 +262,8 @@ pub(crate) struct GridPlan {
     pub frame: Option<Frame>,
     /// Level in the hierarchy (0 = the root), for statistics and counters.
     pub depth: u32,
+    /// Whether the grid's box is the whole scene's (a root) rather than its items'.
+    pub scene_box: bool,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -432,6 +490,50 @@ pub(crate) struct GridHierarchy {
     /// Whether cells test their triangles eight at a time ([`simd`]): the processor has AVX2,
     /// the store's offsets fit the gathers, and the spec did not turn it off.
     simd: bool,
+    /// Whether every grid is referenced from one cell at most (recursive grids, octrees): a
+    /// ray then reaches each grid once without the grid mailbox, which would otherwise record
+    /// every sub-grid a long ray crosses.
+    unique_grid_refs: bool,
+}
+
+/// How the items of a grid become `(cell, reference)` pairs.
+struct Binner<'a, P> {
+    prims: &'a P,
+    store: &'a PrimStore,
+    margin: f32,
+    /// Objects of a grid without frame spanning at least this many cells are referenced only
+    /// by the cells they meet ([`Prune`]).
+    prune_span: u64,
+}
+
+impl<P: Primitives> Binner<'_, P> {
+    /// Appends the pairs of items `range` of grid `h`, cells numbered from `h.first_cell`.
+    fn bin(
+        &self,
+        h: &GridHeader,
+        it: &Items<P>,
+        range: std::ops::Range<usize>,
+        out: &mut Vec<u64>,
+    ) {
+        for (r, b) in range.filter_map(|k| it.get(k)) {
+            let test = r & GRID_TAG == 0 && h.frame == NO_FRAME && {
+                let (lo, hi) = h.cell_range(&b);
+                (0..3).map(|a| (hi[a] - lo[a] + 1) as u64).product::<u64>() >= self.prune_span
+            };
+            // A cell is kept when the object meets it widened by the margin, which is what
+            // the exactness argument asks of the references (module documentation).
+            GridHierarchy::for_each_cell(h, &b, |cell, i| {
+                if !test
+                    || self.prims.overlaps_box(
+                        self.store.id(r) as usize,
+                        &h.cell_box(cell).expand(self.margin),
+                    )
+                {
+                    out.push(((h.first_cell as usize + i) as u64) << 32 | r as u64);
+                }
+            });
+        }
+    }
 }
 
 /// What one grid bins: its objects (store entries) then its children (tagged grid indices),
@@ -486,14 +588,16 @@ impl GridHierarchy {
         (m * 2f32.powi(-17)).max(1e-30)
     }
 
-    /// Builds the grids of `plans` (grid 0 is the root; a grid's children come after it) over
-    /// `store` (entries without a finite box are never binned). With `prune`, an object is referenced only by the cells its own surface meets
-    /// ([`Primitives::overlaps_box`]) rather than every cell its box meets.
+    /// Builds the grids of `plans` (a grid's children come after it) over `store` (entries
+    /// without a finite box are never binned). With `prune`, an object is referenced only by
+    /// the cells its own surface meets ([`Primitives::overlaps_box`]) rather than every cell
+    /// its box meets. With `subdivision`, crowded cells are then gridded again, top-down.
     pub fn build<P: Primitives>(
         prims: &P,
         store: PrimStore,
         plans: &[GridPlan],
         prune: Prune,
+        subdivision: Option<Subdivision>,
         simd: bool,
     ) -> Result<GridHierarchy, SpecError> {
         let scene = (0..store.len() as u32)
@@ -530,8 +634,8 @@ impl GridHierarchy {
         let mut items: Vec<Option<Items<P>>> = (0..plans.len()).map(|_| None).collect();
         for g in (0..plans.len()).rev() {
             let it = Self::items(prims, &store, &frames, &grids, &plans[g], g, margin);
-            // The root covers the whole scene: its box is the scene's, already known.
-            let bounds = if g == 0 && plans[g].frame.is_none() {
+            // A root covers the whole scene: its box is the scene's, already known.
+            let bounds = if plans[g].scene_box && plans[g].frame.is_none() {
                 scene
             } else {
                 it.bounds()
@@ -545,24 +649,8 @@ impl GridHierarchy {
             // Flat axes get a thickness so that every cell has a positive size.
             let b = bounds.expand(margin);
             (h.min, h.max) = (b.min, b.max);
-            let res = match plans[g].resolution {
-                Resolution::Cubical(cells) => cubical_resolution(b.extent(), cells),
-                Resolution::Fixed(r) => r.map(|x| x.max(1)),
-            };
-            h.set_resolution(res);
-            let budget = (MAX_REFS_PER_ITEM * it.len() as u64)
-                .max(MIN_REF_BUDGET)
-                .min(u32::MAX as u64 / 2);
-            // A sample tells most grids that they are far within the budget; the others
-            // count exactly.
-            let step = (it.len() / 1024).max(1);
-            let sampled = Self::box_reference_count(h, &it, step) * step as u64;
-            while sampled > budget / 4
-                && Self::box_reference_count(h, &it, 1) > budget
-                && h.res != [1, 1, 1]
-            {
-                h.set_resolution(h.res.map(|r| (r / 2).max(1)));
-            }
+            h.set_resolution(plans[g].resolution.cells_per_axis(b.extent()));
+            Self::fit_budget(h, &it);
             h.shift_planes();
             items[g] = Some(it);
         }
@@ -577,23 +665,15 @@ impl GridHierarchy {
                 "{total_cells} cells: more than one hierarchy can address"
             )));
         }
-        let prune_span: u64 = match prune {
-            Prune::None => u64::MAX,
-            Prune::All => 1,
-            Prune::Large => Prune::LARGE,
-        };
-        // Whether an item's references are tested cell by cell: objects of a pruned grid that
-        // span enough cells for the test to pay.
-        let pruned = |h: &GridHeader, r: u32, b: &Aabb| {
-            r & GRID_TAG == 0 && h.frame == NO_FRAME && {
-                let (lo, hi) = h.cell_range(b);
-                (0..3).map(|a| (hi[a] - lo[a] + 1) as u64).product::<u64>() >= prune_span
-            }
-        };
-        // A cell is kept when the object meets it widened by the margin, which is what the
-        // exactness argument asks of the references (module documentation).
-        let keeps = |h: &GridHeader, test: bool, r: u32, c: [u32; 3]| {
-            !test || prims.overlaps_box(store.id(r) as usize, &h.cell_box(c).expand(margin))
+        let binner = Binner {
+            prims,
+            store: &store,
+            margin,
+            prune_span: match prune {
+                Prune::None => u64::MAX,
+                Prune::All => 1,
+                Prune::Large => Prune::LARGE,
+            },
         };
         // Pass 1: every reference as (cell among all grids' cells, reference), grid by grid
         // and item by item; a grid of many items in chunks, in parallel.
@@ -609,20 +689,13 @@ impl GridHierarchy {
         let pairs: Vec<Vec<u64>> = tasks
             .par_iter()
             .map(|(g, range)| {
-                let (h, it) = (&grids[*g], &items[*g]);
                 let mut out = Vec::new();
-                for (r, b) in range.clone().filter_map(|k| it.get(k)) {
-                    let test = pruned(h, r, &b);
-                    Self::for_each_cell(h, &b, |cell, i| {
-                        if keeps(h, test, r, cell) {
-                            out.push(((h.first_cell as usize + i) as u64) << 32 | r as u64);
-                        }
-                    });
-                }
+                binner.bin(&grids[*g], &items[*g], range.clone(), &mut out);
                 out
             })
             .collect();
         let mut pairs = pairs.concat();
+        drop(items);
         if pairs.len() >= u32::MAX as usize {
             return Err(SpecError::Build(format!(
                 "{} references: more than one hierarchy can address",
@@ -632,9 +705,17 @@ impl GridHierarchy {
         // Pass 2: a stable sort by cell keeps each cell's objects in store order, then its
         // grids; the cell index and the references come straight from the sorted pairs.
         radix_sort_high32(&mut pairs);
+        if let Some(sub) = subdivision {
+            pairs = Self::subdivide(&binner, &mut grids, pairs, &mut total_cells, &sub);
+        }
         let cells = CellIndex::from_sorted(&pairs, total_cells as usize);
         let refs: Vec<u32> = pairs.par_iter().map(|&p| p as u32).collect();
         drop(pairs);
+        let mut referenced = vec![false; grids.len()];
+        let unique_grid_refs = refs
+            .iter()
+            .filter(|&&r| r & GRID_TAG != 0)
+            .all(|&r| !std::mem::replace(&mut referenced[(r & !GRID_TAG) as usize], true));
         let simd = simd && simd::available() && store.triangles().len() * 9 < i32::MAX as usize;
         Ok(GridHierarchy {
             store,
@@ -643,7 +724,147 @@ impl GridHierarchy {
             cells,
             refs,
             simd,
+            unique_grid_refs,
         })
+    }
+
+    /// Halves the resolution of `h` until box binning its items stays within the reference
+    /// budget ([`MAX_REFS_PER_ITEM`]).
+    fn fit_budget<P: Primitives>(h: &mut GridHeader, it: &Items<P>) {
+        let budget = (MAX_REFS_PER_ITEM * it.len() as u64)
+            .max(MIN_REF_BUDGET)
+            .min(u32::MAX as u64 / 2);
+        // A sample tells most grids that they are far within the budget; the others count
+        // exactly.
+        let step = (it.len() / 1024).max(1);
+        let sampled = Self::box_reference_count(h, it, step) * step as u64;
+        while sampled > budget / 4
+            && Self::box_reference_count(h, it, 1) > budget
+            && h.res != [1, 1, 1]
+        {
+            h.set_resolution(h.res.map(|r| (r / 2).max(1)));
+        }
+    }
+
+    /// Grids again every crowded cell ([`Subdivision`]), level by level: the sorted `pairs`
+    /// of the grids built so far in, the sorted pairs of all grids out. A cut cell's object
+    /// pairs give way to one pair naming its sub-grid, whose cells come after all others, so
+    /// that the pairs stay sorted by cell.
+    fn subdivide<P: Primitives>(
+        binner: &Binner<P>,
+        grids: &mut Vec<GridHeader>,
+        mut pairs: Vec<u64>,
+        total_cells: &mut u64,
+        sub: &Subdivision,
+    ) -> Vec<u64> {
+        let n = binner.store.len() as u64;
+        let ref_budget = 2 * (MAX_REFS_PER_ITEM * n + MIN_REF_BUDGET);
+        let cell_budget =
+            (*total_cells + MAX_REFS_PER_ITEM * n + MIN_REF_BUDGET).min(u32::MAX as u64 - 1);
+        let mut first_grid = 0;
+        while first_grid < grids.len() {
+            let last_grid = grids.len();
+            // The crowded cells of this level's grids: (first pair, end, grid, objects).
+            let mut runs = Vec::new();
+            let first_cell = grids[first_grid].first_cell as u64;
+            let mut k = pairs.partition_point(|&p| p >> 32 < first_cell);
+            let mut g = first_grid;
+            while k < pairs.len() {
+                let c = pairs[k] >> 32;
+                let e = k + pairs[k..].partition_point(|&p| p >> 32 == c);
+                while g + 1 < last_grid && grids[g + 1].first_cell as u64 <= c {
+                    g += 1;
+                }
+                let h = &grids[g];
+                let objects = pairs[k..e]
+                    .iter()
+                    .take_while(|&&p| p as u32 & GRID_TAG == 0)
+                    .count();
+                if objects > sub.maxp
+                    && h.depth < sub.max_depth
+                    && h.frame == NO_FRAME
+                    && objects < h.objects as usize
+                {
+                    runs.push((k, e, g, objects));
+                }
+                k = e;
+            }
+            let made: Vec<(GridHeader, Vec<u64>)> = runs
+                .par_iter()
+                .map(|&(k, _, g, objects)| {
+                    let parent = &grids[g];
+                    let c = ((pairs[k] >> 32) - parent.first_cell as u64) as u32;
+                    let (rx, ry) = (parent.res[0], parent.res[1]);
+                    let b = parent
+                        .cell_box([c % rx, c / rx % ry, c / (rx * ry)])
+                        .expand(binner.margin);
+                    let objects: Vec<u32> =
+                        pairs[k..k + objects].iter().map(|&p| p as u32).collect();
+                    let mut h = GridHeader {
+                        min: b.min,
+                        max: b.max,
+                        size: Vec3::ONE,
+                        inv_size: Vec3::ONE,
+                        res: [1, 1, 1],
+                        first_cell: 0,
+                        frame: NO_FRAME,
+                        depth: parent.depth + 1,
+                        objects: objects.len() as u32,
+                    };
+                    h.set_resolution(
+                        sub.cells
+                            .resolution(objects.len())
+                            .cells_per_axis(b.extent()),
+                    );
+                    let it = Items {
+                        objects: &objects,
+                        store: binner.store,
+                        prims: binner.prims,
+                        turned: None,
+                        children: Vec::new(),
+                        margin: binner.margin,
+                    };
+                    Self::fit_budget(&mut h, &it);
+                    let mut out = Vec::new();
+                    binner.bin(&h, &it, 0..it.len(), &mut out);
+                    out.sort_by_key(|&p| p >> 32);
+                    (h, out)
+                })
+                .collect();
+            let mut refs = pairs.len() as u64;
+            let mut cut = Vec::new();
+            let mut appended = Vec::new();
+            for (&(k, e, _, objects), (mut h, out)) in runs.iter().zip(made) {
+                let cells = h.cells() as u64;
+                let after = refs + out.len() as u64 + 1 - objects as u64;
+                if after > ref_budget || *total_cells + cells > cell_budget {
+                    continue;
+                }
+                refs = after;
+                h.first_cell = *total_cells as u32;
+                *total_cells += cells;
+                let offset = (h.first_cell as u64) << 32;
+                appended.extend(out.iter().map(|&p| p + offset));
+                cut.push((k, e, objects, grids.len() as u32));
+                grids.push(h);
+            }
+            if cut.is_empty() {
+                break;
+            }
+            let mut next = Vec::with_capacity(refs as usize);
+            let mut at = 0;
+            for (k, e, objects, child) in cut {
+                next.extend_from_slice(&pairs[at..k]);
+                next.extend_from_slice(&pairs[k + objects..e]);
+                next.push((pairs[k] >> 32) << 32 | (child | GRID_TAG) as u64);
+                at = e;
+            }
+            next.extend_from_slice(&pairs[at..]);
+            next.extend(appended);
+            pairs = next;
+            first_grid = last_grid;
+        }
+        pairs
     }
 
     /// The items grid `g` bins (four margins in a turned frame: the turn rounds too).
@@ -863,7 +1084,7 @@ impl GridHierarchy {
         for &r in rest {
             if r & GRID_TAG != 0 {
                 let sub = r & !GRID_TAG;
-                if mail.first_grid_visit(sub)
+                if (self.unique_grid_refs || mail.first_grid_visit(sub))
                     && self.walk::<P, C, ANY_HIT>(sub, prims, ray, tmin, near, mail, counters)
                 {
                     return true;
@@ -909,6 +1130,20 @@ impl GridHierarchy {
         near.hit(&self.store)
     }
 
+    /// The box of grid `g` (in its frame, if it has one).
+    pub fn grid_box(&self, g: usize) -> Aabb {
+        Aabb::new(self.grids[g].min, self.grids[g].max)
+    }
+
+    /// Levels of the hierarchy: one more than its deepest grid's.
+    pub fn depth(&self) -> usize {
+        self.grids
+            .iter()
+            .map(|h| h.depth as usize + 1)
+            .max()
+            .unwrap_or(0)
+    }
+
     pub fn grid_count(&self) -> usize {
         self.grids.len()
     }
@@ -941,12 +1176,7 @@ impl GridHierarchy {
 
     /// The statistics of SCG97 §3 for each level of the hierarchy (level 0 = the root).
     pub fn level_stats(&self) -> Vec<GridLevelStats> {
-        let levels = self
-            .grids
-            .iter()
-            .map(|h| h.depth as usize + 1)
-            .max()
-            .unwrap_or(0);
+        let levels = self.depth();
         let mut out: Vec<GridLevelStats> = (0..levels)
             .map(|level| GridLevelStats {
                 level,
@@ -984,7 +1214,17 @@ impl GridHierarchy {
                 grids_per_cell[d].add(g as f64);
             }
         }
-        let root_volume = self.grids.first().map_or(0.0, volume);
+        // The volume the top grids cover (one root, or an adaptive grid's clusters).
+        let root_volume = self
+            .grids
+            .iter()
+            .filter(|h| h.depth == 0)
+            .fold(Aabb::EMPTY, |a, h| a.union(&Aabb::new(h.min, h.max)));
+        let root_volume = if root_volume.is_empty() {
+            0.0
+        } else {
+            root_volume.extent().as_dvec3().element_product()
+        };
         let total = |f: fn(&GridLevelStats) -> usize| out.iter().map(f).sum::<usize>().max(1);
         let (to, tg, tc, tp) = (
             total(|l| l.objects),

@@ -10,6 +10,7 @@
 //! names them all, and the tests, the CLI and the benchmarks iterate it. Adding a structure is
 //! one module and one line there.
 
+mod agrid;
 mod brute;
 mod bvh;
 mod counters;
@@ -18,11 +19,14 @@ mod hierarchy;
 pub mod hug;
 mod kdtree;
 mod mailbox;
+mod octree;
+mod rgrid;
 mod simd;
 mod sort;
 mod spec;
 mod store;
 
+pub use agrid::{AdaptiveGrid, AdaptiveSettings};
 pub use brute::Brute;
 pub use bvh::Bvh;
 pub use counters::{Counters, LevelCounts, MAX_LEVELS, NoCounters, RayCounters};
@@ -31,6 +35,8 @@ pub use hierarchy::{GridLevelStats, cubical_resolution};
 pub use hug::Hug;
 pub use kdtree::KdTree;
 pub use mailbox::Mailbox;
+pub use octree::Octree;
+pub use rgrid::RecursiveGrid;
 pub use spec::{Spec, SpecError};
 pub use store::{Nearest, PrimStore};
 
@@ -268,6 +274,9 @@ structures! {
     Brute => Brute,
     Grid => Grid,
     Hug => Hug,
+    RecursiveGrid => RecursiveGrid,
+    Octree => Octree,
+    AdaptiveGrid => AdaptiveGrid,
     Bvh => Bvh,
     KdTree => KdTree,
 }

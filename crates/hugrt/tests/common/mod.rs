@@ -33,6 +33,18 @@ pub fn specs() -> Vec<String> {
             // EG95 as published, and SCG97's improvements.
             "hug:filter=levels,cluster=cluster3d,alpha=0.01,world=2n,density=1,prune=false",
             "hug:filter=two,cluster=cluster3d,alpha=0.01,world=sqrt2,density=1,prune=false",
+            // Recursive grids and octrees cut down to a few objects per cell, deep.
+            "rgrid:maxp=4",
+            "rgrid:maxp=2,depth=6,hetero=false,density=2",
+            "rgrid:maxp=8,prune=true,density=0.2",
+            "octree:maxp=2",
+            "octree:maxp=8,depth=3,prune=true",
+            // Adaptive grids: every cluster gridded, however small, with deep sub-voxel grids;
+            // everything in the orphan grid; one cluster for everything.
+            "agrid:orphans=1,maxp=2,depth=3",
+            "agrid:f=1.5,m=0.3,prune=true,maxp=4",
+            "agrid:f=0,orphans=1000000",
+            "agrid:f=1000,m=1,density=4",
             // Trees: leaves of one primitive, of sixteen with two bins, no SAH traversal cost.
             "bvh:leaf=1",
             "bvh:leaf=16,bins=2,traversal=0",
@@ -47,6 +59,7 @@ pub fn specs() -> Vec<String> {
             // The portable path, where the others test triangles eight at a time.
             "grid:simd=false",
             "hug:simd=false,filter=levels,min_cluster=1,loose=1e30",
+            "rgrid:simd=false,maxp=4",
         ]
         .map(String::from),
     );

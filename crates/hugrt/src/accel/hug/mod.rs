@@ -276,7 +276,8 @@ impl Accel for Hug {
             .collect();
         let (plans, report) = build::plan(&store, &boxes, &settings);
         drop(boxes);
-        let grids = GridHierarchy::build(prims, store, &plans, prune, spec.bool("simd", true)?)?;
+        let simd = spec.bool("simd", true)?;
+        let grids = GridHierarchy::build(prims, store, &plans, prune, None, simd)?;
         Ok(Hug {
             grids,
             report,

@@ -1,0 +1,373 @@
+//! Adaptive grid (Klimaszewski and Sederberg, IEEE CG&A 1997; RTNews "Comparison of
+//! hierarchical grids", method c): objects clustered bottom-up, a BVH over the clusters, a
+//! grid in every cluster, sub-voxel grids where a cell still holds too many objects.
+//!
+//! RTNews is the description at hand; where it is silent, hugrt chooses, as follows.
+//!
+//! 1. **Clustering** by a surface-area merge criterion: two candidates (objects or clusters)
+//!    `A` and `B` merge when the box around both is no larger than their own boxes,
+//!    `SA(A ∪ B) ≤ f · (SA(A) + SA(B))` (neighbours whose union adds little empty space), and
+//!    the merged box is small beside the scene's, `diag(A ∪ B) ≤ m · diag(scene)`. The paper's
+//!    nearest-candidate search is replaced by neighbours along the Morton order the primitive
+//!    store already has: rounds of merging each candidate with the next one along that order
+//!    (each at most once per round, so candidates of like size meet, as in a bottom-up tree),
+//!    until a round merges nothing (at most 64 rounds: linear work per round).
+//! 2. **Orphans**: clusters of fewer than `orphans` objects are not worth a grid; their
+//!    objects share one orphan grid.
+//! 3. **BVH** over the clusters' grids (and the orphan grid): binary, split at the median of
+//!    the longest axis of the grids' centres, one grid per leaf; walked near child first,
+//!    skipping nodes entered beyond the nearest hit. RTNews found interior nodes to have few
+//!    children and gridded only the leaves; so does hugrt.
+//! 4. **Grids**: each cluster gridded with `density` cells per object, cells as cubical as
+//!    possible (the paper's heterogeneous local grids).
+//! 5. **Sub-voxel grids**: a cell referencing more than `maxp` objects is gridded again
+//!    ([`Subdivision`], the recursive grid's rule), down to `depth` levels below the
+//!    clusters' grids.
+//!
+//! Every grid is walked with one ray state ([`GridHierarchy::walk`]: nearest hit, mailbox),
+//! so an object tested in one sub-voxel grid is not tested again by its neighbour.
+//!
+//! Defaults: measured on the generated scenes and meshes (`docs/measurements.md`, "The
+//! adaptive grid's defaults").
+
+use super::grid::check_size;
+use super::hierarchy::{GridHierarchy, GridPlan, Prune, Resolution, SubCells, Subdivision};
+use super::store::{Nearest, finite};
+use super::{
+    Accel, CellCensus, Counters, Hit, Mailbox, PrimStore, Primitives, Spec, SpecError,
+    StructureStats,
+};
+use crate::geometry::{Aabb, PreparedRay, Ray};
+use rayon::prelude::*;
+
+/// The settings of an adaptive grid (the keys of `agrid`).
+#[derive(Clone, Copy, Debug)]
+pub struct AdaptiveSettings {
+    pub f: f32,
+    pub m: f32,
+    pub orphans: usize,
+    pub density: f32,
+    pub maxp: usize,
+    pub depth: u32,
+}
+
+impl Default for AdaptiveSettings {
+    fn default() -> Self {
+        AdaptiveSettings {
+            f: 1.0,
+            m: 0.1,
+            orphans: 8,
+            density: 1.0,
+            maxp: 16,
+            depth: 1,
+        }
+    }
+}
+
+/// A node of the BVH over the grids: a leaf names a grid (`right == LEAF`), an inner node its
+/// children.
+#[derive(Clone, Copy, Debug)]
+struct Node {
+    bounds: Aabb,
+    left: u32,
+    right: u32,
+}
+
+const LEAF: u32 = u32::MAX;
+
+pub struct AdaptiveGrid {
+    grids: GridHierarchy,
+    nodes: Vec<Node>,
+    settings: AdaptiveSettings,
+    clusters: usize,
+    orphans: usize,
+    prims: usize,
+}
+
+impl AdaptiveGrid {
+    /// Clusters the store entries with a finite box (module documentation, step 1): ranges of
+    /// `order`, the finite entries in store (Morton) order.
+    fn cluster(
+        boxes: &[Aabb],
+        order: &[u32],
+        f: f32,
+        max_diagonal: f32,
+    ) -> Vec<std::ops::Range<usize>> {
+        let mut candidates: Vec<(Aabb, std::ops::Range<usize>)> = order
+            .iter()
+            .enumerate()
+            .map(|(k, &s)| (boxes[s as usize], k..k + 1))
+            .collect();
+        for _ in 0..64 {
+            let mut next = Vec::with_capacity(candidates.len());
+            let mut k = 0;
+            while k < candidates.len() {
+                if let Some((b, r)) = candidates.get(k + 1) {
+                    let a = &candidates[k];
+                    let u = a.0.union(b);
+                    if u.surface_area() <= f * (a.0.surface_area() + b.surface_area())
+                        && u.diagonal() <= max_diagonal
+                    {
+                        next.push((u, a.1.start..r.end));
+                        k += 2;
+                        continue;
+                    }
+                }
+                next.push(candidates[k].clone());
+                k += 1;
+            }
+            let merged = next.len() < candidates.len();
+            candidates = next;
+            if !merged {
+                break;
+            }
+        }
+        candidates.into_iter().map(|(_, r)| r).collect()
+    }
+
+    /// The BVH over the grids' boxes (step 3): nodes in depth-first order, the root first.
+    fn bvh(boxes: &[(Aabb, u32)]) -> Vec<Node> {
+        let mut nodes = Vec::with_capacity(2 * boxes.len());
+        let mut items = boxes.to_vec();
+        if !items.is_empty() {
+            Self::bvh_node(&mut items, &mut nodes);
+        }
+        nodes
+    }
+
+    fn bvh_node(items: &mut [(Aabb, u32)], nodes: &mut Vec<Node>) -> u32 {
+        let at = nodes.len() as u32;
+        let bounds = items.iter().fold(Aabb::EMPTY, |a, (b, _)| a.union(b));
+        if let [(_, g)] = items {
+            nodes.push(Node {
+                bounds,
+                left: *g,
+                right: LEAF,
+            });
+            return at;
+        }
+        nodes.push(Node {
+            bounds,
+            left: 0,
+            right: 0,
+        });
+        let centres = items
+            .iter()
+            .fold(Aabb::EMPTY, |a, (b, _)| a.grow(b.center()));
+        let axis = centres.extent().max_position();
+        let mid = items.len() / 2;
+        items.select_nth_unstable_by(mid, |a, b| {
+            a.0.center()[axis].total_cmp(&b.0.center()[axis])
+        });
+        let (lo, hi) = items.split_at_mut(mid);
+        let left = Self::bvh_node(lo, nodes);
+        let right = Self::bvh_node(hi, nodes);
+        nodes[at as usize].left = left;
+        nodes[at as usize].right = right;
+        at
+    }
+
+    fn settings(spec: &Spec) -> Result<AdaptiveSettings, SpecError> {
+        let d = AdaptiveSettings::default();
+        Ok(AdaptiveSettings {
+            f: spec.f32_in("f", d.f, 0.0, 1000.0)?,
+            m: spec.f32_in("m", d.m, 0.0, 1.0)?,
+            orphans: spec.usize_in("orphans", d.orphans, 1, 1 << 30)?,
+            density: spec.f32_in("density", d.density, 0.001, 1000.0)?,
+            maxp: spec.usize_in("maxp", d.maxp, 1, 1_000_000)?,
+            depth: spec.usize_in("depth", d.depth as usize, 0, 15)? as u32,
+        })
+    }
+}
+
+impl Accel for AdaptiveGrid {
+    const NAME: &'static str = "agrid";
+    const KEYS: &'static [(&'static str, &'static str)] = &[
+        (
+            "f",
+            "merge two candidates when their union's box area is at most f times the sum of theirs, 0..1000 (default 1)",
+        ),
+        (
+            "m",
+            "largest cluster diagonal as a share of the scene's, 0..1 (default 0.1)",
+        ),
+        (
+            "orphans",
+            "clusters of fewer objects go to the one orphan grid (default 8)",
+        ),
+        (
+            "density",
+            "cells per object in every grid, 0.001..1000 (default 1)",
+        ),
+        (
+            "maxp",
+            "a cell referencing more objects gets a sub-voxel grid, 1..1000000 (default 16)",
+        ),
+        (
+            "depth",
+            "levels of sub-voxel grids below the clusters' grids, 0..15 (default 1)",
+        ),
+        (
+            "prune",
+            "true: reference a cell only if the primitive itself touches it; large: only for objects whose box spans 16 cells or more (default false)",
+        ),
+        (
+            "simd",
+            "false: test a cell's triangles one at a time even where AVX2 is present (default true)",
+        ),
+    ];
+
+    fn build<P: Primitives>(prims: &P, spec: &Spec) -> Result<Self, SpecError> {
+        let settings = Self::settings(spec)?;
+        let prune = Prune::from_spec(spec, Prune::None)?;
+        let n = prims.len();
+        check_size(n)?;
+        let store = PrimStore::build(prims);
+        let boxes: Vec<Aabb> = (0..n as u32)
+            .into_par_iter()
+            .map(|s| store.bounds(prims, s))
+            .collect();
+        let order: Vec<u32> = (0..n as u32)
+            .filter(|&s| finite(&boxes[s as usize]))
+            .collect();
+        let scene = order
+            .iter()
+            .fold(Aabb::EMPTY, |a, &s| a.union(&boxes[s as usize]));
+        let clusters = Self::cluster(&boxes, &order, settings.f, settings.m * scene.diagonal());
+        drop(boxes);
+        let plan = |objects: Vec<u32>| GridPlan {
+            resolution: Resolution::Cubical(settings.density as f64 * objects.len() as f64),
+            objects,
+            children: Vec::new(),
+            frame: None,
+            depth: 0,
+            scene_box: false,
+        };
+        let mut orphans = Vec::new();
+        let mut plans = Vec::new();
+        for r in clusters {
+            if r.len() < settings.orphans {
+                orphans.extend_from_slice(&order[r]);
+            } else {
+                plans.push(plan(order[r].to_vec()));
+            }
+        }
+        let clusters = plans.len();
+        let orphan_count = orphans.len();
+        if !orphans.is_empty() {
+            plans.push(plan(orphans));
+        }
+        let sub = Subdivision {
+            maxp: settings.maxp,
+            max_depth: settings.depth,
+            cells: SubCells::Cubical(settings.density as f64),
+        };
+        let simd = spec.bool("simd", true)?;
+        let grids = GridHierarchy::build(prims, store, &plans, prune, Some(sub), simd)?;
+        let tops: Vec<(Aabb, u32)> = (0..plans.len())
+            .map(|g| (grids.grid_box(g), g as u32))
+            .collect();
+        Ok(AdaptiveGrid {
+            grids,
+            nodes: Self::bvh(&tops),
+            settings,
+            clusters,
+            orphans: orphan_count,
+            prims: n,
+        })
+    }
+
+    fn query<P: Primitives, C: Counters, const ANY_HIT: bool>(
+        &self,
+        prims: &P,
+        ray: &Ray,
+        counters: &mut C,
+    ) -> Option<Hit> {
+        let root = self.nodes.first()?;
+        let pr = PreparedRay::new(ray);
+        let mut near = Nearest::new(ray.tmax);
+        let mut mail = Mailbox::default();
+        counters.box_test(0);
+        let (t, _) = root.bounds.intersect(&pr, ray.tmin, near.t)?;
+        // Depth of a median split tree is at most log2(grids) + 1 < 33.
+        let mut stack = [(0u32, 0f32); 64];
+        stack[0] = (0, t);
+        let mut top = 1;
+        while top > 0 {
+            top -= 1;
+            let (k, entry) = stack[top];
+            if entry > near.t {
+                continue;
+            }
+            let node = &self.nodes[k as usize];
+            if node.right == LEAF {
+                if self.grids.walk::<P, C, ANY_HIT>(
+                    node.left, prims, &pr, ray.tmin, &mut near, &mut mail, counters,
+                ) {
+                    break;
+                }
+                continue;
+            }
+            counters.box_test(0);
+            counters.box_test(0);
+            let hit = |c: u32| {
+                self.nodes[c as usize]
+                    .bounds
+                    .intersect(&pr, ray.tmin, near.t)
+                    .map(|(t, _)| (c, t))
+            };
+            match (hit(node.left), hit(node.right)) {
+                (Some(a), Some(b)) => {
+                    let (first, second) = if a.1 <= b.1 { (a, b) } else { (b, a) };
+                    stack[top] = second;
+                    stack[top + 1] = first;
+                    top += 2;
+                }
+                (Some(a), None) | (None, Some(a)) => {
+                    stack[top] = a;
+                    top += 1;
+                }
+                (None, None) => {}
+            }
+        }
+        near.hit(&self.grids.store)
+    }
+
+    fn memory_bytes(&self) -> usize {
+        std::mem::size_of::<Self>()
+            + self.grids.memory_bytes()
+            + self.nodes.capacity() * std::mem::size_of::<Node>()
+    }
+
+    fn stats(&self) -> StructureStats {
+        let levels = self.grids.level_stats();
+        let a = &self.settings;
+        let mut s = StructureStats::default();
+        s.push("f", a.f as f64);
+        s.push("m", a.m as f64);
+        s.push("orphan_threshold", a.orphans as f64);
+        s.push("density", a.density as f64);
+        s.push("maxp", a.maxp as f64);
+        s.push("depth_limit", a.depth as f64);
+        s.push("clusters", self.clusters as f64);
+        s.push("orphans", self.orphans as f64);
+        s.push("bvh_nodes", self.nodes.len() as f64);
+        s.push("grids", self.grids.grid_count() as f64);
+        s.push("depth", levels.len() as f64);
+        s.push("cells", self.grids.cell_count() as f64);
+        s.push("references", self.grids.reference_count() as f64);
+        let object_refs: usize = levels.iter().map(|l| l.object_refs).sum();
+        s.push(
+            "references_per_object",
+            object_refs as f64 / self.prims.max(1) as f64,
+        );
+        s.push_memory(
+            self.grids.grid_memory_bytes() + self.nodes.capacity() * std::mem::size_of::<Node>(),
+            self.memory_bytes(),
+            self.prims,
+        );
+        s.census = CellCensus::of_levels(&levels);
+        s.levels = levels;
+        s
+    }
+}

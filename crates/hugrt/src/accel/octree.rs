@@ -1,0 +1,67 @@
+//! EG95's "simulated octree" (§1.2.3, §4): the recursive grid with every grid, the root
+//! included, cut 2×2×2, a cell referencing more than `maxp` objects cut again down to a depth
+//! limit. It is walked as the recursive grid is, cell by cell with the 3D-DDA at every level,
+//! which is how EG95 ran it (a subclass of their grid); the papers give no depth limit, and
+//! hugrt's default of 10 levels below the root is what a million-triangle mesh needs for
+//! leaves of about 50 objects (a surface fills about 4^d of the 8^d cells at depth d).
+//! Termination and memory are those of the recursive grid ([`super::RecursiveGrid`]).
+
+use super::hierarchy::{Prune, Resolution, SubCells, Subdivision};
+use super::rgrid::{CutGrids, MAX_DEPTH};
+use super::{Accel, Counters, Hit, Primitives, Spec, SpecError, StructureStats};
+use crate::geometry::Ray;
+
+pub struct Octree {
+    cut: CutGrids,
+}
+
+impl Accel for Octree {
+    const NAME: &'static str = "octree";
+    const KEYS: &'static [(&'static str, &'static str)] = &[
+        (
+            "maxp",
+            "a cell referencing more objects is cut in eight, 1..1000000 (default 50; EG95 used 50, 100, 150)",
+        ),
+        (
+            "depth",
+            "deepest level, the root being 0, 0..16 (default 10)",
+        ),
+        (
+            "prune",
+            "true: reference a cell only if the primitive itself touches it; large: only for objects whose box spans 16 cells or more (default false)",
+        ),
+        (
+            "simd",
+            "false: test a cell's triangles one at a time even where AVX2 is present (default true)",
+        ),
+    ];
+
+    fn build<P: Primitives>(prims: &P, spec: &Spec) -> Result<Self, SpecError> {
+        let sub = Subdivision {
+            maxp: spec.usize_in("maxp", 50, 1, 1_000_000)?,
+            max_depth: spec.usize_in("depth", 10, 0, MAX_DEPTH)? as u32,
+            cells: SubCells::Fixed([2; 3]),
+        };
+        let prune = Prune::from_spec(spec, Prune::None)?;
+        Ok(Octree {
+            cut: CutGrids::build(prims, spec, Resolution::Fixed([2; 3]), sub, prune)?,
+        })
+    }
+
+    fn query<P: Primitives, C: Counters, const ANY_HIT: bool>(
+        &self,
+        prims: &P,
+        ray: &Ray,
+        counters: &mut C,
+    ) -> Option<Hit> {
+        self.cut.grids.query::<P, C, ANY_HIT>(prims, ray, counters)
+    }
+
+    fn memory_bytes(&self) -> usize {
+        std::mem::size_of::<Self>() + self.cut.grids.memory_bytes()
+    }
+
+    fn stats(&self) -> StructureStats {
+        self.cut.stats(self.memory_bytes())
+    }
+}

@@ -1,0 +1,183 @@
+//! Recursive grid (Jevans and Wyvill, GI'89; EG95 §1.2.2; RTNews "Comparison of hierarchical
+//! grids", method a): a uniform grid over the scene, and every cell referencing more than
+//! `maxp` objects gridded again over its own box, down to a depth limit.
+//!
+//! * Cells of a sub-grid: EG95 §1.2.2 (Jansen's `∛` criterion) sets `n_x = n_y = n_z =
+//!   ∛n_i` for a cell of `n_i` objects; RTNews found grids whose cells are as cubical as
+//!   possible, their number proportional to the objects ("heterogeneous"), generally faster.
+//!   Both are here (`hetero=false|true`), each `density · n_i` cells; the root grid follows the
+//!   same rule over all `n` objects. The default, heterogeneous, is RTNews' finding; on the
+//!   cells of a cubical root the two differ little.
+//! * A sub-grid's box is its cell (widened by the structure's margin), not the box of the
+//!   objects in it: the papers' structure, whose cells never overlap, so each sub-grid is
+//!   walked from its one cell and needs no mailbox (RTNews: "each nested grid along the ray
+//!   path is tested exactly once").
+//! * Termination and memory: the bounds of [`Subdivision`] (depth, a cell holding all of its
+//!   grid's objects is not cut again, references within `2·(64·n + 4096)`). EG95 §1.2.2's
+//!   non-terminating case, more than `maxp` coplanar polygons sharing a point, stops at the
+//!   first level that would only repeat itself.
+//! * Traversal: the nested grids' walk ([`GridHierarchy::walk`]): a cell's sub-grid is walked
+//!   with the same ray state, and the walk above stops once the nearest hit lies before the
+//!   cell's exit.
+//!
+//! Defaults: `maxp = 50` (EG95's fastest of 50, 100, 150), depth 3 (RTNews: "usually 2 or
+//! 3"; EG95 saw at most 5), `density = 1` (the cube-root rule both papers use).
+
+use super::grid::check_size;
+use super::hierarchy::{GridHierarchy, GridPlan, Prune, Resolution, SubCells, Subdivision};
+use super::{
+    Accel, CellCensus, Counters, Hit, PrimStore, Primitives, Spec, SpecError, StructureStats,
+};
+use crate::geometry::Ray;
+
+/// Grids nested by cutting crowded cells: what [`RecursiveGrid`] and [`super::Octree`] are.
+pub(crate) struct CutGrids {
+    pub grids: GridHierarchy,
+    pub prims: usize,
+    pub sub: Subdivision,
+}
+
+impl CutGrids {
+    /// Builds the root grid of `root` cells over everything, then cuts its crowded cells.
+    pub fn build<P: Primitives>(
+        prims: &P,
+        spec: &Spec,
+        root: Resolution,
+        sub: Subdivision,
+        prune: Prune,
+    ) -> Result<CutGrids, SpecError> {
+        let n = prims.len();
+        check_size(n)?;
+        let store = PrimStore::build(prims);
+        let plan = GridPlan {
+            objects: (0..n as u32).collect(),
+            children: Vec::new(),
+            resolution: root,
+            frame: None,
+            depth: 0,
+            scene_box: true,
+        };
+        let simd = spec.bool("simd", true)?;
+        let grids = GridHierarchy::build(prims, store, &[plan], prune, Some(sub), simd)?;
+        Ok(CutGrids {
+            grids,
+            prims: n,
+            sub,
+        })
+    }
+
+    /// The statistics `hugrt stats` shows for a recursive grid or an octree.
+    pub fn stats(&self, memory_bytes: usize) -> StructureStats {
+        let levels = self.grids.level_stats();
+        let mut s = StructureStats::default();
+        s.push("maxp", self.sub.maxp as f64);
+        s.push("depth_limit", self.sub.max_depth as f64);
+        s.push("grids", self.grids.grid_count() as f64);
+        s.push("depth", levels.len() as f64);
+        s.push("cells", self.grids.cell_count() as f64);
+        s.push("references", self.grids.reference_count() as f64);
+        let object_refs: usize = levels.iter().map(|l| l.object_refs).sum();
+        s.push(
+            "references_per_object",
+            object_refs as f64 / self.prims.max(1) as f64,
+        );
+        s.push(
+            "cells_per_object",
+            self.grids.cell_count() as f64 / self.prims.max(1) as f64,
+        );
+        s.push_memory(self.grids.grid_memory_bytes(), memory_bytes, self.prims);
+        s.census = CellCensus::of_levels(&levels);
+        s.levels = levels;
+        s
+    }
+}
+
+pub struct RecursiveGrid {
+    cut: CutGrids,
+    density: f32,
+    hetero: bool,
+}
+
+/// The deepest level (the root is 0) [`RecursiveGrid`] and [`super::Octree`] accept.
+pub(crate) const MAX_DEPTH: usize = 16;
+
+impl Accel for RecursiveGrid {
+    const NAME: &'static str = "rgrid";
+    const KEYS: &'static [(&'static str, &'static str)] = &[
+        (
+            "maxp",
+            "a cell referencing more objects is gridded again, 1..1000000 (default 50; EG95 used 50, 100, 150)",
+        ),
+        (
+            "depth",
+            "deepest level of sub-grids, the root being 0, 0..16 (default 3)",
+        ),
+        (
+            "density",
+            "cells per object in every grid, 0.001..1000 (default 1, the cube-root rule)",
+        ),
+        (
+            "hetero",
+            "true: cells as cubical as possible (RTNews); false: the same count on every axis (EG95's cube-root criterion) (default true)",
+        ),
+        (
+            "prune",
+            "true: reference a cell only if the primitive itself touches it; large: only for objects whose box spans 16 cells or more (default false)",
+        ),
+        (
+            "simd",
+            "false: test a cell's triangles one at a time even where AVX2 is present (default true)",
+        ),
+    ];
+
+    fn build<P: Primitives>(prims: &P, spec: &Spec) -> Result<Self, SpecError> {
+        let maxp = spec.usize_in("maxp", 50, 1, 1_000_000)?;
+        let depth = spec.usize_in("depth", 3, 0, MAX_DEPTH)? as u32;
+        let density = spec.f32_in("density", 1.0, 0.001, 1000.0)?;
+        let hetero = spec.bool("hetero", true)?;
+        let prune = Prune::from_spec(spec, Prune::None)?;
+        let d = density as f64;
+        let (root, cells) = if hetero {
+            (
+                Resolution::Cubical(d * prims.len() as f64),
+                SubCells::Cubical(d),
+            )
+        } else {
+            (
+                Resolution::Regular(d * prims.len() as f64),
+                SubCells::Regular(d),
+            )
+        };
+        let sub = Subdivision {
+            maxp,
+            max_depth: depth,
+            cells,
+        };
+        Ok(RecursiveGrid {
+            cut: CutGrids::build(prims, spec, root, sub, prune)?,
+            density,
+            hetero,
+        })
+    }
+
+    fn query<P: Primitives, C: Counters, const ANY_HIT: bool>(
+        &self,
+        prims: &P,
+        ray: &Ray,
+        counters: &mut C,
+    ) -> Option<Hit> {
+        self.cut.grids.query::<P, C, ANY_HIT>(prims, ray, counters)
+    }
+
+    fn memory_bytes(&self) -> usize {
+        std::mem::size_of::<Self>() + self.cut.grids.memory_bytes()
+    }
+
+    fn stats(&self) -> StructureStats {
+        let mut s = self.cut.stats(self.memory_bytes());
+        s.entries.insert(0, ("density".into(), self.density as f64));
+        s.entries
+            .insert(1, ("hetero".into(), self.hetero as u8 as f64));
+        s
+    }
+}
