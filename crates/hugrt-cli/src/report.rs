@@ -41,7 +41,7 @@ pub fn print_structure_stats(spec: &str, build_s: f64, st: &StructureStats) -> a
     if st.levels.is_empty() {
         return Ok(());
     }
-    say!("per level (SCG97 3; level 0 is the root grid):");
+    say!("per level (SCG97 3; level 0 is the top: the root grid, or an adaptive grid's clusters):");
     say!(
         "  {:>5} {:>6} {:>9} {:>9} {:>9} {:>6} {:>6} {:>7} {:>6} {:>7} {:>10}",
         "level",
