@@ -82,6 +82,11 @@ enum Built {
     Crate(bvh::bvh::Bvh<f32, 3>, Vec<CrateTriangle>),
 }
 
+/// The triangles in the BVH's primitive order (obvhs's `cornell_box_cwbvh` example).
+fn laid_out(indices: &[u32], tris: &[obvhs::triangle::Triangle]) -> Vec<obvhs::triangle::Triangle> {
+    indices.iter().map(|&i| tris[i as usize]).collect()
+}
+
 fn obvhs_ray(r: &Ray) -> obvhs::ray::Ray {
     let v = |v: Vec3| glam::Vec3A::new(v.x, v.y, v.z);
     obvhs::ray::Ray::new(v(r.origin), v(r.dir), r.tmin, r.tmax)
@@ -109,11 +114,7 @@ impl Built {
                     params,
                     &mut Duration::default(),
                 );
-                let laid = bvh
-                    .primitive_indices
-                    .iter()
-                    .map(|&i| tris[i as usize])
-                    .collect();
+                let laid = laid_out(&bvh.primitive_indices, &tris);
                 Built::Cwbvh(bvh, laid)
             }
             Peer::ObvhsBvh2 => {
@@ -123,11 +124,7 @@ impl Built {
                     params,
                     &mut Duration::default(),
                 );
-                let laid = bvh
-                    .primitive_indices
-                    .iter()
-                    .map(|&i| tris[i as usize])
-                    .collect();
+                let laid = laid_out(&bvh.primitive_indices, &tris);
                 Built::Bvh2(bvh, laid)
             }
             Peer::Bvh => {

@@ -35,15 +35,13 @@
 //! 32` on the kitchen). Where the adaptive grid loses to the HUG (1.7× slower, geometric
 //! mean) is the BVH over many small clusters: 14–45 box tests per ray.
 
-use super::grid::check_size;
+use super::grid::{PRUNE_KEY, SIMD_KEY, store_with_boxes};
 use super::hierarchy::{GridHierarchy, GridPlan, Prune, Resolution, SubCells, Subdivision};
 use super::store::{Nearest, finite};
 use super::{
-    Accel, CellCensus, Counters, Hit, Mailbox, PrimStore, Primitives, Spec, SpecError,
-    StructureStats,
+    Accel, CellCensus, Counters, Hit, Mailbox, Primitives, Spec, SpecError, StructureStats,
 };
 use crate::geometry::{Aabb, PreparedRay, Ray};
-use rayon::prelude::*;
 
 /// The settings of an adaptive grid (the keys of `agrid`).
 #[derive(Clone, Copy, Debug)]
@@ -212,26 +210,15 @@ impl Accel for AdaptiveGrid {
             "depth",
             "levels of sub-voxel grids below the clusters' grids, 0..15 (default 1)",
         ),
-        (
-            "prune",
-            "true: reference a cell only if the primitive itself touches it; large: only for objects whose box spans 16 cells or more (default false)",
-        ),
-        (
-            "simd",
-            "false: test a cell's triangles one at a time even where AVX2 is present (default true)",
-        ),
+        PRUNE_KEY,
+        SIMD_KEY,
     ];
 
     fn build<P: Primitives>(prims: &P, spec: &Spec) -> Result<Self, SpecError> {
         let settings = Self::settings(spec)?;
         let prune = Prune::from_spec(spec, Prune::None)?;
         let n = prims.len();
-        check_size(n)?;
-        let store = PrimStore::build(prims);
-        let boxes: Vec<Aabb> = (0..n as u32)
-            .into_par_iter()
-            .map(|s| store.bounds(prims, s))
-            .collect();
+        let (store, boxes) = store_with_boxes(prims)?;
         let order: Vec<u32> = (0..n as u32)
             .filter(|&s| finite(&boxes[s as usize]))
             .collect();

@@ -14,7 +14,7 @@ use super::hierarchy::{GridHierarchy, GridPlan, Prune, Resolution};
 use super::{
     Accel, CellCensus, Counters, Hit, PrimStore, Primitives, Spec, SpecError, StructureStats,
 };
-use crate::geometry::Ray;
+use crate::geometry::{Aabb, Ray};
 
 /// Default cells per primitive, chosen by measurement (`docs/measurements.md`): over two
 /// meshes, the generated clustered room and four SPD scenes, `D = 2` has the best geometric
@@ -29,6 +29,33 @@ pub struct Grid {
     prims: usize,
     density: f32,
     prune: Prune,
+}
+
+/// The `prune` key of the grid structures that bin boxes by default.
+pub(crate) const PRUNE_KEY: (&str, &str) = (
+    "prune",
+    "true: reference a cell only if the primitive itself touches it; large: only for objects whose box spans 16 cells or more (default false)",
+);
+
+/// The `simd` key of every grid structure.
+pub(crate) const SIMD_KEY: (&str, &str) = (
+    "simd",
+    "false: test a cell's triangles one at a time even where AVX2 is present (default true)",
+);
+
+/// The store of `prims` and the box of each of its entries, for the builds that plan from
+/// boxes; fails for scenes too large ([`check_size`]).
+pub(crate) fn store_with_boxes<P: Primitives>(
+    prims: &P,
+) -> Result<(PrimStore, Vec<Aabb>), SpecError> {
+    use rayon::prelude::*;
+    check_size(prims.len())?;
+    let store = PrimStore::build(prims);
+    let boxes = (0..prims.len() as u32)
+        .into_par_iter()
+        .map(|s| store.bounds(prims, s))
+        .collect();
+    Ok((store, boxes))
 }
 
 /// Fails for scenes too large for 32-bit references (one bit marks sub-grids).
@@ -48,14 +75,8 @@ impl Accel for Grid {
             "density",
             "cells per primitive, 0.001..1000 (default 2; RTNews used 1 and 20)",
         ),
-        (
-            "prune",
-            "true: reference a cell only if the primitive itself touches it; large: only for objects whose box spans 16 cells or more (default false)",
-        ),
-        (
-            "simd",
-            "false: test a cell's triangles one at a time even where AVX2 is present (default true)",
-        ),
+        PRUNE_KEY,
+        SIMD_KEY,
     ];
 
     fn build<P: Primitives>(prims: &P, spec: &Spec) -> Result<Self, SpecError> {

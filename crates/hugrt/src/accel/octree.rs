@@ -8,6 +8,7 @@
 //! rendering, like the uniform grid).
 //! Termination and memory are those of the recursive grid ([`super::RecursiveGrid`]).
 
+use super::grid::{PRUNE_KEY, SIMD_KEY};
 use super::hierarchy::{Prune, Resolution, SubCells, Subdivision};
 use super::rgrid::{CutGrids, MAX_DEPTH};
 use super::{Accel, Counters, Hit, Primitives, Spec, SpecError, StructureStats};
@@ -28,14 +29,8 @@ impl Accel for Octree {
             "depth",
             "deepest level, the root being 0, 0..16 (default 16)",
         ),
-        (
-            "prune",
-            "true: reference a cell only if the primitive itself touches it; large: only for objects whose box spans 16 cells or more (default false)",
-        ),
-        (
-            "simd",
-            "false: test a cell's triangles one at a time even where AVX2 is present (default true)",
-        ),
+        PRUNE_KEY,
+        SIMD_KEY,
     ];
 
     fn build<P: Primitives>(prims: &P, spec: &Spec) -> Result<Self, SpecError> {

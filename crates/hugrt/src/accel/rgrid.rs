@@ -23,7 +23,7 @@
 //! Defaults: `maxp = 50` (EG95's fastest of 50, 100, 150), depth 3 (RTNews: "usually 2 or
 //! 3"; EG95 saw at most 5), `density = 1` (the cube-root rule both papers use).
 
-use super::grid::check_size;
+use super::grid::{PRUNE_KEY, SIMD_KEY, check_size};
 use super::hierarchy::{GridHierarchy, GridPlan, Prune, Resolution, SubCells, Subdivision};
 use super::{
     Accel, CellCensus, Counters, Hit, PrimStore, Primitives, Spec, SpecError, StructureStats,
@@ -120,14 +120,8 @@ impl Accel for RecursiveGrid {
             "hetero",
             "true: cells as cubical as possible (RTNews); false: the same count on every axis (EG95's cube-root criterion) (default true)",
         ),
-        (
-            "prune",
-            "true: reference a cell only if the primitive itself touches it; large: only for objects whose box spans 16 cells or more (default false)",
-        ),
-        (
-            "simd",
-            "false: test a cell's triangles one at a time even where AVX2 is present (default true)",
-        ),
+        PRUNE_KEY,
+        SIMD_KEY,
     ];
 
     fn build<P: Primitives>(prims: &P, spec: &Spec) -> Result<Self, SpecError> {

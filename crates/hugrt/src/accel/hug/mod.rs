@@ -33,13 +33,10 @@ pub mod filter;
 pub use build::{Clustering, Insertion, Settings, WorldCells};
 pub use filter::Filter;
 
-use super::grid::check_size;
+use super::grid::{SIMD_KEY, store_with_boxes};
 use super::hierarchy::{GridHierarchy, Prune};
-use super::{
-    Accel, CellCensus, Counters, Hit, PrimStore, Primitives, Spec, SpecError, StructureStats,
-};
-use crate::geometry::{Aabb, Ray};
-use rayon::prelude::*;
+use super::{Accel, CellCensus, Counters, Hit, Primitives, Spec, SpecError, StructureStats};
+use crate::geometry::Ray;
 
 /// The defaults of `hug` with no keys, chosen by measurement: every variant rendered (SPD
 /// procedure, 2 threads, best of 3 at 512² or of 5 at 1024² where two were within noise)
@@ -258,22 +255,14 @@ impl Accel for Hug {
             "prune",
             "true: reference a cell only if the primitive itself touches it; large: only for objects whose box spans 16 cells or more (default large)",
         ),
-        (
-            "simd",
-            "false: test a cell's triangles one at a time even where AVX2 is present (default true)",
-        ),
+        SIMD_KEY,
     ];
 
     fn build<P: Primitives>(prims: &P, spec: &Spec) -> Result<Self, SpecError> {
         let settings = Hug::settings(spec)?;
         let prune = Prune::from_spec(spec, Prune::Large)?;
         let n = prims.len();
-        check_size(n)?;
-        let store = PrimStore::build(prims);
-        let boxes: Vec<Aabb> = (0..n as u32)
-            .into_par_iter()
-            .map(|s| store.bounds(prims, s))
-            .collect();
+        let (store, boxes) = store_with_boxes(prims)?;
         let (plans, report) = build::plan(&store, &boxes, &settings);
         drop(boxes);
         let simd = spec.bool("simd", true)?;
