@@ -21,12 +21,22 @@ pub(crate) fn radix_sort_high32(v: &mut Vec<u64>) {
     }
 }
 
-/// The digits (shift, width) of keys of `bits` bits: the fewest passes of at most 12 bits
-/// (4096 counters stay in the first-level cache), as wide as each other.
+/// The digits (shift, width) of keys of `bits` bits above bit 32: the fewest passes of at
+/// most 12 bits (4096 counters stay in the first-level cache), as wide as each other.
 fn passes(bits: u32) -> Vec<(u32, u32)> {
+    passes_from(32, bits)
+}
+
+fn passes_from(base: u32, bits: u32) -> Vec<(u32, u32)> {
     let n = bits.div_ceil(12).max(1);
     let width = bits.div_ceil(n).max(1);
-    (0..n).map(|k| (32 + k * width, width)).collect()
+    (0..n).map(|k| (base + k * width, width)).collect()
+}
+
+/// Sorts keys below `2^bits` ascending (on one thread): linear time, where a comparison sort
+/// takes `O(n log n)` (the kd-tree's events, sorted at every node).
+pub(crate) fn radix_sort_keys(v: &mut Vec<u64>, bits: u32) {
+    serial(v, &passes_from(0, bits));
 }
 
 fn digit(x: u64, shift: u32, bits: u32) -> usize {
@@ -140,6 +150,11 @@ mod tests {
             assert_eq!(r, want, "{n}");
         }
         assert_eq!(passes(23), vec![(32, 12), (44, 12)]);
+        let mut k: Vec<u64> = keys(50_000).iter().map(|x| x % (1 << 34)).collect();
+        let mut want = k.clone();
+        want.sort_unstable();
+        radix_sort_keys(&mut k, 34);
+        assert_eq!(k, want);
         assert_eq!(passes(32), vec![(32, 11), (43, 11), (54, 11)]);
         // Small keys take fewer passes and sort the same.
         let mut small: Vec<u64> = (0..100_000u64)
