@@ -1,9 +1,12 @@
 //! Nested uniform grids: the data and the walk that the uniform grid, the HUG and the other
 //! grid hierarchies share.
 //!
-//! A [`GridHierarchy`] is a list of uniform grids (grid 0 is the root) over one
-//! [`PrimStore`]. A cell references store entries and, like objects, other grids (EG95 §2.3:
-//! "a grid is inserted into the cells of the grid above it, like an object"). Everything is
+//! A [`GridHierarchy`] is a list of uniform grids over one [`PrimStore`]: grid 0 is the
+//! root of the uniform grid, the HUG, the recursive grid and the octree; an adaptive grid's
+//! top grids (its clusters') are walked from its own BVH. A cell references store entries and,
+//! like objects, other grids (EG95 §2.3: "a grid is inserted into the cells of the grid above
+//! it, like an object"). Grids come from a plan built bottom-up (the HUG's), and cells that
+//! are still crowded may then be cut top-down ([`Subdivision`]: the recursive grid's). Everything is
 //! flat: the cells of every grid lie consecutively in one offsets array, their references in
 //! one array, sorted per cell (objects in store order, then grids), built in two passes
 //! (count, prefix sum, fill: RTNews "Quicker grid generation"), with no allocation per grid
