@@ -969,14 +969,20 @@ impl GridHierarchy {
         let p = o + d * t0;
         let res = h.res;
         let stride = [1, res[0] as isize, res[0] as isize * res[1] as isize];
-        let cell: [i32; 3] = std::array::from_fn(|a| h.coord(a, p[a]) as i32);
+        // Spelled out rather than `std::array::from_fn`, which the compiler left as calls
+        // (the bvh's lesson, `docs/measurements.md`).
+        let cell = [
+            h.coord(0, p.x) as i32,
+            h.coord(1, p.y) as i32,
+            h.coord(2, p.z) as i32,
+        ];
         let mut idx = h.first_cell as isize
             + cell[0] as isize
             + cell[1] as isize * stride[1]
             + cell[2] as isize * stride[2];
         // Each axis's state lives in its own variables, so that a step touches registers
         // only: indexing arrays by the axis of the step costs a store and a reload.
-        let [mut ax, mut ay, mut az] = std::array::from_fn(|a| {
+        let axis = |a: usize| {
             Axis::new(
                 h.min[a],
                 h.size[a],
@@ -987,7 +993,8 @@ impl GridHierarchy {
                 cell[a],
                 stride[a],
             )
-        });
+        };
+        let (mut ax, mut ay, mut az) = (axis(0), axis(1), axis(2));
         let mut far = near.t;
         loop {
             counters.cell_visit(depth);
