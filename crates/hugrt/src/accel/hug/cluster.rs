@@ -205,99 +205,104 @@ pub fn graph_components(items: &mut [Item], delta: f32) -> Vec<Range<usize>> {
     if n == 0 {
         return Vec::new();
     }
-    // Boxes grown by half of δ on every side meet exactly when they were less than δ apart.
-    let h = 0.5 * delta.max(0.0);
-    let grown: Vec<Item> = items
-        .iter()
-        .map(|it| Item {
+    // The grid is freed before the items are regrouped (the build's peak memory).
+    let mut parent = {
+        // Boxes grown by half of δ on every side meet exactly when they were less than δ apart.
+        let h = 0.5 * delta.max(0.0);
+        // Grown where used rather than copied: a copy of every box was the largest part of
+        // the build's peak.
+        let grown = |it: &Item| Item {
             lo: it.lo.map(|x| x - h),
             hi: it.hi.map(|x| x + h),
             id: it.id,
-        })
-        .collect();
-    let boxes = &grown;
-    let (lo, hi) = boxes.iter().fold(
-        ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]),
-        |(lo, hi), it| {
+        };
+        let boxes = &*items;
+        let (lo, hi) = boxes.iter().fold(
+            ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]),
+            |(lo, hi), it| {
+                let it = grown(it);
+                (
+                    std::array::from_fn(|a| lo[a].min(it.lo[a])),
+                    std::array::from_fn(|a| hi[a].max(it.hi[a])),
+                )
+            },
+        );
+        let extent = glam::Vec3::from_array(std::array::from_fn(|a| hi[a] - lo[a]));
+        let mut res = crate::accel::cubical_resolution(extent, 2.0 * n as f64);
+        let range = |res: [u32; 3], it: &Item| -> ([u32; 3], [u32; 3]) {
+            let it = &grown(it);
+            let c = |x: f32, a: usize| {
+                let e = extent[a];
+                if e <= 0.0 {
+                    0
+                } else {
+                    (((x - lo[a]) / e * res[a] as f32).max(0.0) as u32).min(res[a] - 1)
+                }
+            };
             (
-                std::array::from_fn(|a| lo[a].min(it.lo[a])),
-                std::array::from_fn(|a| hi[a].max(it.hi[a])),
+                std::array::from_fn(|a| c(it.lo[a], a)),
+                std::array::from_fn(|a| c(it.hi[a], a)),
             )
-        },
-    );
-    let extent = glam::Vec3::from_array(std::array::from_fn(|a| hi[a] - lo[a]));
-    let mut res = crate::accel::cubical_resolution(extent, 2.0 * n as f64);
-    let range = |res: [u32; 3], it: &Item| -> ([u32; 3], [u32; 3]) {
-        let c = |x: f32, a: usize| {
-            let e = extent[a];
-            if e <= 0.0 {
-                0
-            } else {
-                (((x - lo[a]) / e * res[a] as f32).max(0.0) as u32).min(res[a] - 1)
+        };
+        let refs = |res: [u32; 3]| -> u64 {
+            boxes
+                .iter()
+                .map(|it| {
+                    let (l, h) = range(res, it);
+                    (0..3).map(|a| (h[a] - l[a] + 1) as u64).product::<u64>()
+                })
+                .sum()
+        };
+        while refs(res) > 8 * n as u64 && res != [1, 1, 1] {
+            res = res.map(|r| (r / 2).max(1));
+        }
+        let cells = res.iter().map(|&r| r as usize).product::<usize>();
+        let each = |f: &mut dyn FnMut(usize, u32)| {
+            for (i, it) in boxes.iter().enumerate() {
+                let (l, h) = range(res, it);
+                for z in l[2]..=h[2] {
+                    for y in l[1]..=h[1] {
+                        for x in l[0]..=h[0] {
+                            let c = ((z * res[1] + y) * res[0] + x) as usize;
+                            f(c, i as u32);
+                        }
+                    }
+                }
             }
         };
-        (
-            std::array::from_fn(|a| c(it.lo[a], a)),
-            std::array::from_fn(|a| c(it.hi[a], a)),
-        )
-    };
-    let refs = |res: [u32; 3]| -> u64 {
-        boxes
-            .iter()
-            .map(|it| {
-                let (l, h) = range(res, it);
-                (0..3).map(|a| (h[a] - l[a] + 1) as u64).product::<u64>()
-            })
-            .sum()
-    };
-    while refs(res) > 8 * n as u64 && res != [1, 1, 1] {
-        res = res.map(|r| (r / 2).max(1));
-    }
-    let cells = res.iter().map(|&r| r as usize).product::<usize>();
-    let each = |f: &mut dyn FnMut(usize, u32)| {
-        for (i, it) in boxes.iter().enumerate() {
-            let (l, h) = range(res, it);
-            for z in l[2]..=h[2] {
-                for y in l[1]..=h[1] {
-                    for x in l[0]..=h[0] {
-                        let c = ((z * res[1] + y) * res[0] + x) as usize;
-                        f(c, i as u32);
+        let mut start = vec![0u32; cells + 1];
+        each(&mut |c, _| start[c + 1] += 1);
+        for c in 0..cells {
+            start[c + 1] += start[c];
+        }
+        let mut members = vec![0u32; start[cells] as usize];
+        let mut cursor = start.clone();
+        each(&mut |c, i| {
+            members[cursor[c] as usize] = i;
+            cursor[c] += 1;
+        });
+        let mut parent: Vec<u32> = (0..n as u32).collect();
+        let touch = |a: &Item, b: &Item| (0..3).all(|k| a.lo[k] <= b.hi[k] && b.lo[k] <= a.hi[k]);
+        for c in 0..cells {
+            let m = &members[start[c] as usize..start[c + 1] as usize];
+            if m.len() > CROWD {
+                for &j in &m[1..] {
+                    union(&mut parent, m[0], j);
+                }
+                continue;
+            }
+            for (k, &i) in m.iter().enumerate() {
+                for &j in &m[k + 1..] {
+                    if find(&mut parent, i) != find(&mut parent, j)
+                        && touch(&grown(&boxes[i as usize]), &grown(&boxes[j as usize]))
+                    {
+                        union(&mut parent, i, j);
                     }
                 }
             }
         }
+        parent
     };
-    let mut start = vec![0u32; cells + 1];
-    each(&mut |c, _| start[c + 1] += 1);
-    for c in 0..cells {
-        start[c + 1] += start[c];
-    }
-    let mut members = vec![0u32; start[cells] as usize];
-    let mut cursor = start.clone();
-    each(&mut |c, i| {
-        members[cursor[c] as usize] = i;
-        cursor[c] += 1;
-    });
-    let mut parent: Vec<u32> = (0..n as u32).collect();
-    let touch = |a: &Item, b: &Item| (0..3).all(|k| a.lo[k] <= b.hi[k] && b.lo[k] <= a.hi[k]);
-    for c in 0..cells {
-        let m = &members[start[c] as usize..start[c + 1] as usize];
-        if m.len() > CROWD {
-            for &j in &m[1..] {
-                union(&mut parent, m[0], j);
-            }
-            continue;
-        }
-        for (k, &i) in m.iter().enumerate() {
-            for &j in &m[k + 1..] {
-                if find(&mut parent, i) != find(&mut parent, j)
-                    && touch(&boxes[i as usize], &boxes[j as usize])
-                {
-                    union(&mut parent, i, j);
-                }
-            }
-        }
-    }
     let roots: Vec<u32> = (0..n as u32).map(|i| find(&mut parent, i)).collect();
     let mut keyed: Vec<(u32, Item)> = roots.into_iter().zip(items.iter().copied()).collect();
     keyed.sort_unstable_by_key(|&(r, _)| r);
