@@ -36,7 +36,7 @@
 //! mean) is the BVH over many small clusters: 14–45 box tests per ray.
 
 use super::grid::{PRUNE_KEY, SIMD_KEY, store_with_boxes};
-use super::hierarchy::{GridHierarchy, GridPlan, Prune, Resolution, SubCells, Subdivision};
+use super::hierarchy::{GridHierarchy, GridPlan, Prune, Resolution, Subdivision};
 use super::store::{Nearest, finite};
 use super::{
     Accel, CellCensus, Counters, Hit, Mailbox, Primitives, Spec, SpecError, StructureStats,
@@ -227,8 +227,9 @@ impl Accel for AdaptiveGrid {
             .fold(Aabb::EMPTY, |a, &s| a.union(&boxes[s as usize]));
         let clusters = Self::cluster(&boxes, &order, settings.f, settings.m * scene.diagonal());
         drop(boxes);
+        let per_object = Resolution::Cubical(settings.density as f64);
         let plan = |objects: Vec<u32>| GridPlan {
-            resolution: Resolution::Cubical(settings.density as f64 * objects.len() as f64),
+            resolution: per_object.for_objects(objects.len()),
             objects,
             children: Vec::new(),
             frame: None,
@@ -252,7 +253,7 @@ impl Accel for AdaptiveGrid {
         let sub = Subdivision {
             maxp: settings.maxp,
             max_depth: settings.depth,
-            cells: SubCells::Cubical(settings.density as f64),
+            cells: per_object,
         };
         let simd = spec.bool("simd", true)?;
         let grids = GridHierarchy::build(prims, store, &plans, prune, Some(sub), simd)?;

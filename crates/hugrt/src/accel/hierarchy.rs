@@ -204,6 +204,17 @@ pub(crate) enum Resolution {
 }
 
 impl Resolution {
+    /// The resolution for `k` objects when `self` counts cells per object (`Cubical` and
+    /// `Regular`: RTNews' heterogeneous grids and EG95's `∛` criterion at `d·k` cells);
+    /// `Fixed` is the same for any `k` (the octree's 2×2×2).
+    pub(crate) fn for_objects(self, k: usize) -> Resolution {
+        match self {
+            Resolution::Cubical(d) => Resolution::Cubical(d * k as f64),
+            Resolution::Regular(d) => Resolution::Regular(d * k as f64),
+            fixed @ Resolution::Fixed(_) => fixed,
+        }
+    }
+
     fn cells_per_axis(self, extent: Vec3) -> [u32; 3] {
         match self {
             Resolution::Cubical(cells) => cubical_resolution(extent, cells),
@@ -233,28 +244,8 @@ impl Resolution {
 pub(crate) struct Subdivision {
     pub maxp: usize,
     pub max_depth: u32,
-    pub cells: SubCells,
-}
-
-/// Cells of the sub-grid of a cell referencing `k` objects.
-#[derive(Clone, Copy, Debug)]
-pub(crate) enum SubCells {
-    /// About `density · k` cubical cells (RTNews' heterogeneous grids).
-    Cubical(f64),
-    /// `∛(density · k)` cells on every axis (EG95's `∛` criterion).
-    Regular(f64),
-    /// The same cells per axis for every sub-grid (2×2×2: the octree).
-    Fixed([u32; 3]),
-}
-
-impl SubCells {
-    fn resolution(self, k: usize) -> Resolution {
-        match self {
-            SubCells::Cubical(d) => Resolution::Cubical(d * k as f64),
-            SubCells::Regular(d) => Resolution::Regular(d * k as f64),
-            SubCells::Fixed(r) => Resolution::Fixed(r),
-        }
-    }
+    /// Cells of a cut cell's grid, per object it holds ([`Resolution::for_objects`]).
+    pub cells: Resolution,
 }
 
 /// One grid to build: what it holds and how finely it is cut.
@@ -808,7 +799,7 @@ impl GridHierarchy {
                     };
                     h.set_resolution(
                         sub.cells
-                            .resolution(objects.len())
+                            .for_objects(objects.len())
                             .cells_per_axis(b.extent()),
                     );
                     let it = Items {

@@ -26,7 +26,7 @@ mod sort;
 mod spec;
 mod store;
 
-pub use agrid::{AdaptiveGrid, AdaptiveSettings};
+pub use agrid::AdaptiveGrid;
 pub use brute::Brute;
 pub use bvh::Bvh;
 pub use counters::{Counters, LevelCounts, MAX_LEVELS, NoCounters, RayCounters};

@@ -9,7 +9,7 @@
 //! Termination and memory are those of the recursive grid ([`super::RecursiveGrid`]).
 
 use super::grid::{PRUNE_KEY, SIMD_KEY};
-use super::hierarchy::{Prune, Resolution, SubCells, Subdivision};
+use super::hierarchy::{Prune, Resolution, Subdivision};
 use super::rgrid::{CutGrids, MAX_DEPTH};
 use super::{Accel, Counters, Hit, Primitives, Spec, SpecError, StructureStats};
 use crate::geometry::Ray;
@@ -37,11 +37,11 @@ impl Accel for Octree {
         let sub = Subdivision {
             maxp: spec.usize_in("maxp", 50, 1, 1_000_000)?,
             max_depth: spec.usize_in("depth", MAX_DEPTH, 0, MAX_DEPTH)? as u32,
-            cells: SubCells::Fixed([2; 3]),
+            cells: Resolution::Fixed([2; 3]),
         };
         let prune = Prune::from_spec(spec, Prune::None)?;
         Ok(Octree {
-            cut: CutGrids::build(prims, spec, Resolution::Fixed([2; 3]), sub, prune)?,
+            cut: CutGrids::build(prims, spec, sub, prune)?,
         })
     }
 

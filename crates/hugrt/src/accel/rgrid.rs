@@ -24,7 +24,7 @@
 //! 3"; EG95 saw at most 5), `density = 1` (the cube-root rule both papers use).
 
 use super::grid::{PRUNE_KEY, SIMD_KEY, check_size};
-use super::hierarchy::{GridHierarchy, GridPlan, Prune, Resolution, SubCells, Subdivision};
+use super::hierarchy::{GridHierarchy, GridPlan, Prune, Resolution, Subdivision};
 use super::{
     Accel, CellCensus, Counters, Hit, PrimStore, Primitives, Spec, SpecError, StructureStats,
 };
@@ -38,11 +38,11 @@ pub(crate) struct CutGrids {
 }
 
 impl CutGrids {
-    /// Builds the root grid of `root` cells over everything, then cuts its crowded cells.
+    /// Builds the root grid over everything, its cells chosen by `sub`'s rule for all the
+    /// objects (as if the scene were one crowded cell), then cuts its crowded cells.
     pub fn build<P: Primitives>(
         prims: &P,
         spec: &Spec,
-        root: Resolution,
         sub: Subdivision,
         prune: Prune,
     ) -> Result<CutGrids, SpecError> {
@@ -52,7 +52,7 @@ impl CutGrids {
         let plan = GridPlan {
             objects: (0..n as u32).collect(),
             children: Vec::new(),
-            resolution: root,
+            resolution: sub.cells.for_objects(n),
             frame: None,
             depth: 0,
             scene_box: true,
@@ -130,25 +130,17 @@ impl Accel for RecursiveGrid {
         let density = spec.f32_in("density", 1.0, 0.001, 1000.0)?;
         let hetero = spec.bool("hetero", true)?;
         let prune = Prune::from_spec(spec, Prune::None)?;
-        let d = density as f64;
-        let (root, cells) = if hetero {
-            (
-                Resolution::Cubical(d * prims.len() as f64),
-                SubCells::Cubical(d),
-            )
-        } else {
-            (
-                Resolution::Regular(d * prims.len() as f64),
-                SubCells::Regular(d),
-            )
-        };
         let sub = Subdivision {
             maxp,
             max_depth: depth,
-            cells,
+            cells: if hetero {
+                Resolution::Cubical(density as f64)
+            } else {
+                Resolution::Regular(density as f64)
+            },
         };
         Ok(RecursiveGrid {
-            cut: CutGrids::build(prims, spec, root, sub, prune)?,
+            cut: CutGrids::build(prims, spec, sub, prune)?,
             density,
             hetero,
         })
