@@ -4,11 +4,16 @@
 //! * Build: a binary tree by binned surface-area heuristic (Wald, "On fast construction of
 //!   SAH-based bounding volume hierarchies", 2007) over the primitives' box centres, `bins`
 //!   bins per axis, subtrees built in parallel; then collapsed to four children per node by
-//!   opening, again and again, the child of largest surface area.
+//!   opening, again and again, the child of largest surface area. A leaf's cost is its number
+//!   of blocks of four, full or not (as Embree counts its four-triangle leaves), so leaves
+//!   fill their blocks where the areas allow.
 //! * Nodes hold their four children's boxes as six rows of four lanes, so one ray meets all
 //!   four boxes in one pass of lane-wise arithmetic that the compiler turns into SIMD on every
-//!   target (no `unsafe`); leaves hold up to `leaf` primitives of the store
-//!   ([`PrimStore`]), whose triangles are tested eight at a time with AVX2 where present.
+//!   target (no `unsafe`); leaves hold up to `leaf` primitives as [`Block`]s of four
+//!   triangles, side by side, tested together (SSE), in the leaves' order in memory: no
+//!   reference to follow and no store entry to fetch. Spheres, cones and other primitives
+//!   sit in the blocks' last lanes by store entry and are tested through the store
+//!   ([`PrimStore`]), which gives up its own triangles once the blocks hold them.
 //! * Traversal: children nearest first on an explicit stack that remembers each entry's
 //!   distance, so that entries beyond the nearest hit found are dropped unopened; any-hit
 //!   returns at the first hit.
@@ -20,10 +25,10 @@
 //! planes from the direction's sign bit; a ray lying in a box's face plane (0·∞ = NaN on that
 //! axis) leaves the interval as it was, so it counts as inside.
 
-use super::simd;
-use super::store::{Nearest, PrimStore, finite};
+use super::block::{self, Block, BlockRay, EMPTY_LANE, LANES};
+use super::store::{PrimStore, finite};
 use super::{Accel, CellCensus, Counters, Hit, Primitives, Spec, SpecError, StructureStats};
-use crate::geometry::{Aabb, PreparedRay, Ray, Vec3};
+use crate::geometry::{Aabb, PreparedRay, Ray, Vec3, intersect_triangle};
 
 /// Every primitive's box is widened by this fraction of the scene's magnitude (64 ulps of
 /// it), as the grids' cells are (`hierarchy`): a box's entry distance then lies before any hit
@@ -31,11 +36,9 @@ use crate::geometry::{Aabb, PreparedRay, Ray, Vec3};
 /// at the same distance. `tests/agree.rs` (coplanar, axis-aligned triangles) fails without.
 const MARGIN: f32 = 1.0 / (1 << 17) as f32;
 
-/// Leaves of fewer primitives are tested one at a time: the eight-lane test gathers eight
-/// triangles whatever it is given, and the default SAH makes leaves of under two primitives on
-/// average, where the lanes bought nothing measurable (`simd=false` against the default,
-/// paired: ×0.79 to ×1.05 on the bunny and spd-mount-big, within the noise).
-const SIMD_LEAF: usize = 4;
+/// Set in a block lane's id when the lane holds no triangle but the store entry (the other
+/// bits) of a sphere, cone or opaque primitive, tested through the store.
+const OTHER_LANE: u32 = 1 << 31;
 
 /// Children per node.
 const WIDTH: usize = 4;
@@ -48,8 +51,8 @@ const MEDIAN_DEPTH: usize = 48;
 /// binary level, `MEDIAN_DEPTH + 32` for `n < 2^32`.
 const STACK: usize = (WIDTH - 1) * (MEDIAN_DEPTH + 33) + 1;
 
-/// Child reference: a node index, or with `LEAF` set a leaf (`start` in the low 27 bits,
-/// `count − 1` in the next 4).
+/// Child reference: a node index, or with `LEAF` set a leaf (its first [`Block`] in the low
+/// 27 bits, its number of blocks `− 1` in the next 4).
 const LEAF: u32 = 1 << 31;
 const LEAF_START_BITS: u32 = 27;
 const MAX_LEAF: usize = 16;
@@ -64,12 +67,42 @@ struct Node {
     children: [u32; WIDTH],
 }
 
+/// The nearest hit so far: its parameter and primitive index (`u32::MAX` while none). Ties in
+/// `t` go to the lower index, as [`super::Hit::improves`] has it, whatever the order of tests.
+struct Best {
+    t: f32,
+    prim: u32,
+}
+
+impl Best {
+    #[inline(always)]
+    fn offer(&mut self, t: f32, prim: u32) -> bool {
+        let better = t < self.t || self.prim == u32::MAX || (t == self.t && prim < self.prim);
+        if better {
+            self.t = t;
+            self.prim = prim;
+        }
+        better
+    }
+
+    fn hit(&self) -> Option<Hit> {
+        (self.prim != u32::MAX).then_some(Hit {
+            t: self.t,
+            prim: self.prim,
+        })
+    }
+}
+
 pub struct Bvh {
     nodes: Vec<Node>,
-    /// Store entries of the leaves, leaf after leaf; triangles first in each leaf.
-    refs: Vec<u32>,
+    /// The leaves' primitives, leaf after leaf, in blocks of [`LANES`]; a leaf's triangles
+    /// first.
+    blocks: Vec<Block>,
+    /// Primitives in the blocks (lanes not empty).
+    filled: usize,
+    /// The store holds primitives other than triangles, which blocks name by store entry.
     store: PrimStore,
-    simd: bool,
+    others: bool,
     leaf_size: usize,
     bins: usize,
     stats: TreeStats,
@@ -145,7 +178,7 @@ impl Builder {
         // A leaf when it is small enough and no plane costs less than testing everything
         // (SAH: a test costs 1, a traversal step `traversal_cost`).
         let split = match plane {
-            Some((cost, _, _)) if n <= self.leaf_size && cost >= n as f32 => return leaf,
+            Some((cost, _, _)) if n <= self.leaf_size && cost >= blocks(n as u32) => return leaf,
             None if n <= self.leaf_size => return leaf,
             Some((_, axis, position)) => partition(items, axis, position),
             None => None,
@@ -244,7 +277,8 @@ impl Builder {
                 if cnt == 0 || right_count[b] == 0 {
                     continue;
                 }
-                let cost = acc.surface_area() * cnt as f32 + right_area[b] * right_count[b] as f32;
+                let cost =
+                    acc.surface_area() * blocks(cnt) + right_area[b] * blocks(right_count[b]);
                 if best.is_none_or(|(c, _, _)| cost < c) {
                     best = Some((cost, axis, centres.min[axis] + b as f32 / scale[axis]));
                 }
@@ -252,6 +286,12 @@ impl Builder {
         }
         best.map(|(cost, axis, position)| (self.traversal_cost + cost / area, axis, position))
     }
+}
+
+/// The SAH's cost of testing `n` primitives: a block of [`LANES`] costs one test, whether full
+/// or not, so leaves fill their blocks where the surface areas allow.
+fn blocks(n: u32) -> f32 {
+    n.div_ceil(LANES as u32) as f32
 }
 
 /// The box of some items and the box of their centres.
@@ -354,18 +394,31 @@ impl Bvh {
                 start,
                 count,
             } => {
-                let first = self.refs.len();
+                let first = self.blocks.len();
                 let mut slots: Vec<u32> =
                     items[start..start + count].iter().map(|i| i.slot).collect();
+                // Store order: triangles first (other kinds in the last lanes), each kind in
+                // space order.
                 slots.sort_unstable();
-                self.refs.extend(slots);
+                for lanes in slots.chunks(LANES) {
+                    let mut block = Block::EMPTY;
+                    for (l, &s) in lanes.iter().enumerate() {
+                        match self.store.triangle(s) {
+                            Some(t) => block.set(l, t, self.store.id(s)),
+                            None => block.ids[l] = OTHER_LANE | s,
+                        }
+                    }
+                    self.blocks.push(block);
+                }
+                self.filled += count;
                 self.stats.leaves += 1;
                 self.stats.max_depth = self.stats.max_depth.max(depth);
                 self.stats.depth_sum += depth;
                 if !bounds.is_empty() {
                     self.stats.leaf_volume += bounds.volume() as f64;
                 }
-                LEAF | ((count as u32 - 1) << LEAF_START_BITS) | first as u32
+                let blocks = count.div_ceil(LANES) as u32;
+                LEAF | ((blocks - 1) << LEAF_START_BITS) | first as u32
             }
             BuildNode::Inner { children, .. } => {
                 // Open the child of largest area until there are four.
@@ -419,54 +472,60 @@ impl Bvh {
 
     /// Bytes of the nodes and leaf references, without the store.
     fn structure_bytes(&self) -> usize {
-        self.nodes.capacity() * std::mem::size_of::<Node>() + self.refs.capacity() * 4
+        self.nodes.capacity() * std::mem::size_of::<Node>()
+            + self.blocks.capacity() * std::mem::size_of::<Block>()
     }
 
-    /// Tests a leaf's primitives (triangles eight at a time where allowed). Returns `true`
-    /// when `ANY_HIT` found a hit.
+    /// Tests the four primitives of `b`: the triangles together ([`block::lanes`], the scalar
+    /// test's bits lane by lane), the lanes it hands back and the lanes of other primitives
+    /// one at a time. Returns `true` when `ANY_HIT` found a hit.
+    ///
+    /// Lanes pass or fail against the nearest hit as it was when the block began, then offer
+    /// their hits in lane order: the nearest of them is the one a test one at a time would
+    /// keep, and a tie goes to the lower index either way.
     #[inline(always)]
-    fn test_leaf<P: Primitives, C: Counters, const ANY_HIT: bool>(
+    fn test_block<P: Primitives, C: Counters, const ANY_HIT: bool>(
         &self,
-        refs: &[u32],
+        b: &Block,
         prims: &P,
-        ray: &PreparedRay,
+        (ray, bray): &(PreparedRay, BlockRay),
         tmin: f32,
-        near: &mut Nearest,
+        best: &mut Best,
         counters: &mut C,
     ) -> bool {
-        let mut rest = refs;
-        #[cfg(target_arch = "x86_64")]
-        if self.simd && refs.len() >= SIMD_LEAF {
-            let triangles = self.store.triangles();
-            let tri_count = refs.partition_point(|&r| (r as usize) < triangles.len());
-            rest = &refs[tri_count..];
-            for chunk in refs[..tri_count].chunks(8) {
-                let mut batch = [chunk[0]; 8];
-                batch[..chunk.len()].copy_from_slice(chunk);
-                // SAFETY: `simd` is set only when AVX2 is present and `9·len` fits an i32
-                // (`build`); every index is a triangle's (below `triangles.len()`, by the
-                // partition of the sorted leaf), the padding repeats the first.
-                if unsafe {
-                    self.store.offer_triangles8::<P, C, ANY_HIT>(
-                        prims,
-                        &batch,
-                        chunk.len(),
-                        ray,
-                        tmin,
-                        near,
-                        counters,
-                        0,
-                    )
-                } {
-                    return true;
-                }
+        let lanes = block::lanes(b, bray, tmin, best.t);
+        for &id in &b.ids {
+            if id != EMPTY_LANE {
+                counters.prim_test(0);
             }
         }
-        for &r in rest {
-            counters.prim_test(0);
-            if let Some(t) = self.store.intersect(prims, r, ray, tmin, near.t) {
+        let mut others = 0u32;
+        if self.others {
+            for (l, &id) in b.ids.iter().enumerate() {
+                others |= ((id != EMPTY_LANE && id & OTHER_LANE != 0) as u32) << l;
+            }
+        }
+        // Lanes of other primitives have NaN vertices: they neither pass nor need redoing.
+        let (pass, t) = (lanes.pass, lanes.t);
+        let mut todo = pass | lanes.redo | others;
+        while todo != 0 {
+            let l = todo.trailing_zeros() as usize;
+            todo &= todo - 1;
+            let id = b.ids[l];
+            let (hit, prim) = if pass >> l & 1 != 0 {
+                (Some(t[l]), id)
+            } else if others >> l & 1 != 0 {
+                let s = id & !OTHER_LANE;
+                (
+                    self.store.intersect(prims, s, ray, tmin, best.t),
+                    self.store.id(s),
+                )
+            } else {
+                (intersect_triangle(ray, &b.triangle(l), tmin, best.t), id)
+            };
+            if let Some(t) = hit {
                 counters.prim_hit(0);
-                if near.offer(&self.store, t, r) && ANY_HIT {
+                if best.offer(t, prim) && ANY_HIT {
                     return true;
                 }
             }
@@ -487,17 +546,12 @@ impl Accel for Bvh {
             "traversal",
             "cost of a traversal step relative to a primitive test, for the SAH, 0..100 (default 1)",
         ),
-        (
-            "simd",
-            "false: test a leaf's triangles one at a time even where AVX2 is present (default true)",
-        ),
     ];
 
     fn build<P: Primitives>(prims: &P, spec: &Spec) -> Result<Self, SpecError> {
         let leaf_size = spec.usize_in("leaf", 8, 1, MAX_LEAF)?;
         let bins = spec.usize_in("bins", 16, 2, MAX_BINS)?;
         let traversal_cost = spec.f32_in("traversal", 1.0, 0.0, 100.0)?;
-        let simd_key = spec.bool("simd", true)?;
         let n = prims.len();
         if n >= 1 << LEAF_START_BITS {
             return Err(SpecError::Build(format!(
@@ -537,12 +591,12 @@ impl Accel for Bvh {
         };
         let ext = extents(&items);
         let root = builder.build(&mut items, 0, 0, ext);
-        let simd = simd_key && simd::available() && store.triangles().len() * 9 < i32::MAX as usize;
         let mut bvh = Bvh {
             nodes: Vec::new(),
-            refs: Vec::with_capacity(items.len()),
+            blocks: Vec::new(),
+            filled: 0,
+            others: store.triangles().len() < store.len(),
             store,
-            simd,
             leaf_size,
             bins,
             stats: TreeStats::default(),
@@ -564,6 +618,9 @@ impl Accel for Bvh {
         };
         bvh.emit(root, &items, 0);
         bvh.nodes.shrink_to_fit();
+        bvh.blocks.shrink_to_fit();
+        // The blocks hold the triangles now; the store keeps the other kinds.
+        bvh.store.release_triangles();
         Ok(bvh)
     }
 
@@ -573,10 +630,17 @@ impl Accel for Bvh {
         ray: &Ray,
         counters: &mut C,
     ) -> Option<Hit> {
-        let pr = PreparedRay::new(ray);
-        let mut near = Nearest::new(ray.tmax);
+        // The triangle test's set-up (axis permutation and shear) waits for the first leaf:
+        // most camera rays of a sparse scene reach none, and for them it was a fifth of the
+        // time.
+        let mut prepared: Option<(PreparedRay, BlockRay)> = None;
+        let mut near = Best {
+            t: ray.tmax,
+            prim: u32::MAX,
+        };
         let o = ray.origin.to_array();
-        let inv = pr.inv_dir.to_array();
+        // As `PreparedRay::inv_dir` computes it.
+        let inv = (Vec3::ONE / ray.dir).to_array();
         // Rows of the near and far planes per axis, from the sign bit (so −0 counts as
         // negative and its infinite inverse has the right sign).
         let neg = [
@@ -610,15 +674,16 @@ impl Accel for Bvh {
                 if child & LEAF != 0 {
                     let start = (child & ((1 << LEAF_START_BITS) - 1)) as usize;
                     let count = ((child & !LEAF) >> LEAF_START_BITS) as usize + 1;
-                    if self.test_leaf::<P, C, ANY_HIT>(
-                        &self.refs[start..start + count],
-                        prims,
-                        &pr,
-                        tmin,
-                        &mut near,
-                        counters,
-                    ) {
-                        return near.hit(&self.store);
+                    let prepared = prepared.get_or_insert_with(|| {
+                        let pr = PreparedRay::new(ray);
+                        (pr, BlockRay::new(&pr))
+                    });
+                    for b in &self.blocks[start..start + count] {
+                        if self.test_block::<P, C, ANY_HIT>(
+                            b, prims, prepared, tmin, &mut near, counters,
+                        ) {
+                            return near.hit();
+                        }
                     }
                 } else {
                     let node = &self.nodes[child as usize];
@@ -683,7 +748,7 @@ impl Accel for Bvh {
             // depth bound behind `STACK` keeps it from panicking).
             current = unsafe { stack[top].assume_init() };
         }
-        near.hit(&self.store)
+        near.hit()
     }
 
     fn memory_bytes(&self) -> usize {
@@ -705,10 +770,15 @@ impl Accel for Bvh {
             "mean_leaf_depth",
             self.stats.depth_sum as f64 / leaves.max(1) as f64,
         );
-        s.push("references_per_object", self.refs.len() as f64 / n);
+        s.push("references_per_object", self.filled as f64 / n);
         s.push(
             "primitives_per_leaf",
-            self.refs.len() as f64 / leaves.max(1) as f64,
+            self.filled as f64 / leaves.max(1) as f64,
+        );
+        s.push("blocks", self.blocks.len() as f64);
+        s.push(
+            "lanes_filled",
+            self.filled as f64 / (LANES * self.blocks.len()).max(1) as f64,
         );
         s.push_memory(
             self.structure_bytes(),
@@ -718,7 +788,7 @@ impl Accel for Bvh {
         s.census = CellCensus {
             cells: self.nodes.len() + leaves,
             full_cells: leaves,
-            object_refs: self.refs.len(),
+            object_refs: self.filled,
             full_volume: self.stats.leaf_volume,
         };
         s

@@ -11,6 +11,7 @@
 //! one module and one line there.
 
 mod agrid;
+mod block;
 mod brute;
 mod bvh;
 mod counters;

@@ -148,6 +148,12 @@ impl PrimStore {
         &self.tris
     }
 
+    /// Frees the triangles, for a structure that keeps its own copy: triangle entries can then
+    /// no longer be intersected or bounded through the store (their indices panic).
+    pub(crate) fn release_triangles(&mut self) {
+        self.tris = Vec::new();
+    }
+
     /// The primitive's own index (what hits report) of store entry `s`.
     #[inline(always)]
     pub fn id(&self, s: u32) -> u32 {

@@ -48,7 +48,6 @@ pub fn specs() -> Vec<String> {
             // Trees: leaves of one primitive, of sixteen with two bins, no SAH traversal cost.
             "bvh:leaf=1",
             "bvh:leaf=16,bins=2,traversal=0",
-            "bvh:simd=false",
             "kdtree:split=mid,layout=subtrees",
             "kdtree:layout=breadth-first",
             "kdtree:layout=scattered",
