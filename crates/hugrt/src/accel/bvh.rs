@@ -167,7 +167,9 @@ impl Builder {
             start: first,
             count: n,
         };
-        if n <= 1 {
+        // No split costs less than its traversal step: where that alone is as dear as the
+        // leaf (four items or fewer at the default costs), the SAH is not asked (same tree).
+        if n <= 1 || n <= self.leaf_size && blocks(n as u32) <= self.traversal_cost {
             return leaf;
         }
         let plane = if depth < MEDIAN_DEPTH {
@@ -223,16 +225,33 @@ impl Builder {
         let scale = Vec3::splat(nb as f32) / extent;
         // One pass over the items fills the bins of all three axes; large nodes bin in
         // parallel chunks whose bins are then merged.
-        let fill = |bins: &mut Bins, chunk: &[Item]| {
-            for it in chunk {
-                let b = ((it.centre - centres.min) * scale).to_array();
-                for (axis, x) in b.into_iter().enumerate() {
-                    // NaN (an axis of no extent: 0·∞) and overflow clamp into the bins.
-                    let k = axis * nb + (x as usize).min(nb - 1);
-                    bins.boxes[k] = bins.boxes[k].union(&it.bounds);
-                    bins.counts[k] += 1;
-                }
+        let put = |bins: &mut Bins, it: &Item| {
+            let b = ((it.centre - centres.min) * scale).to_array();
+            for (axis, x) in b.into_iter().enumerate() {
+                // NaN (an axis of no extent: 0·∞) and overflow clamp into the bins.
+                let k = axis * nb + (x as usize).min(nb - 1);
+                bins.boxes[k] = bins.boxes[k].union(&it.bounds);
+                bins.counts[k] += 1;
             }
+        };
+        // Neighbouring items tend to fall in the same bins (the store is in Morton order), so
+        // each would wait for the last one's stores to its bin: even and odd items fill
+        // separate bins, merged at the end, which halves those chains of waiting.
+        let fill = |bins: &mut Bins, chunk: &[Item]| {
+            if chunk.len() < PAIRED_BINNING {
+                chunk.iter().for_each(|it| put(bins, it));
+                return;
+            }
+            let mut odd = Bins::new(nb);
+            let pairs = chunk.chunks_exact(2);
+            if let [last] = pairs.remainder() {
+                put(bins, last);
+            }
+            for pair in pairs {
+                put(bins, &pair[0]);
+                put(&mut odd, &pair[1]);
+            }
+            bins.absorb(&odd);
         };
         let bins = if items.len() > PARALLEL_BINNING {
             use rayon::prelude::*;
@@ -315,6 +334,9 @@ fn extents(items: &[Item]) -> Extents {
 /// Most bins per axis (the `bins` key's upper bound).
 const MAX_BINS: usize = 32;
 
+/// Nodes of fewer items bin in one set of bins (see `sah_split`).
+const PAIRED_BINNING: usize = 64;
+
 /// Nodes of more items bin in parallel.
 const PARALLEL_BINNING: usize = 1 << 16;
 
@@ -333,13 +355,17 @@ impl Bins {
     }
 
     fn merge(mut self, o: &Bins) -> Bins {
+        self.absorb(o);
+        self
+    }
+
+    fn absorb(&mut self, o: &Bins) {
         for (a, b) in self.boxes.iter_mut().zip(&o.boxes) {
             *a = a.union(b);
         }
         for (a, b) in self.counts.iter_mut().zip(&o.counts) {
             *a += b;
         }
-        self
     }
 }
 
