@@ -44,6 +44,8 @@ const ADAPTIVE_GRIDS: &[&str] = &[
 ];
 
 const TREES: &[&str] = &["bvh", "bvh:leaf=1", "bvh:leaf=16,bins=2,traversal=0"];
+/// Bvhs with spatial splits, and the extra references each allows per primitive.
+const SPATIAL_TREES: &[(&str, f64)] = &[("bvh:spatial=4,leaf=1", 4.0), ("bvh:spatial=0.3", 0.3)];
 const KD_TREES: &[&str] = &[
     "kdtree",
     "kdtree:split=mid,leaf=1,depth=64",
@@ -135,6 +137,24 @@ fn check(scene: &Scene, rays: usize) {
             assert_eq!(stat(&a, "references_per_object"), 1.0, "{spec}");
         }
     }
+    // With spatial splits: references within `1 + spatial` per object, and the same depth
+    // bound over the references.
+    for &(spec, extra) in SPATIAL_TREES {
+        let a = AnyAccel::build(scene, spec).unwrap_or_else(|e| panic!("{spec}: {e}"));
+        let refs = stat(&a, "references_per_object");
+        if n > 0.0 {
+            assert!(
+                (1.0..=1.0 + extra).contains(&refs),
+                "{spec}: {refs} references per object"
+            );
+        }
+        let depth = stat(&a, "max_depth");
+        let all = (n * (1.0 + extra)).max(1.0);
+        assert!(
+            depth <= 49.0 + all.log2(),
+            "{spec}: depth {depth} for {n} objects"
+        );
+    }
     // The kd-trees: references within the budget of `64·n + 4096`, depth within its limit.
     for spec in KD_TREES {
         let a = AnyAccel::build(scene, spec).unwrap_or_else(|e| panic!("{spec}: {e}"));
@@ -151,6 +171,7 @@ fn check(scene: &Scene, rays: usize) {
         .chain(CUT_GRIDS.iter().map(|(s, _)| s))
         .chain(ADAPTIVE_GRIDS)
         .chain(TREES)
+        .chain(SPATIAL_TREES.iter().map(|(s, _)| s))
         .chain(KD_TREES)
         .map(|s| s.to_string())
         .collect();

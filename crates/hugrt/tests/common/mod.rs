@@ -48,6 +48,9 @@ pub fn specs() -> Vec<String> {
             // Trees: leaves of one primitive, of sixteen with two bins, no SAH traversal cost.
             "bvh:leaf=1",
             "bvh:leaf=16,bins=2,traversal=0",
+            // Spatial splits: as many as the budget allows, leaves of one; and a small budget.
+            "bvh:spatial=4,leaf=1",
+            "bvh:spatial=0.3,bins=4",
             "kdtree:split=mid,layout=subtrees",
             "kdtree:layout=breadth-first",
             "kdtree:layout=scattered",

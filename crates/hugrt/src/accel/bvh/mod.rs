@@ -6,7 +6,8 @@
 //!   bins per axis, subtrees built in parallel; then collapsed to four children per node by
 //!   opening, again and again, the child of largest surface area. A leaf's cost is its number
 //!   of blocks of four, full or not (as Embree counts its four-triangle leaves), so leaves
-//!   fill their blocks where the areas allow.
+//!   fill their blocks where the areas allow. With `spatial` above 0, nodes may instead cut
+//!   space and share a straddling triangle between both sides (SBVH, [`spatial`]).
 //! * Nodes hold their four children's boxes as six rows of four lanes, so one ray meets all
 //!   four boxes in one pass of lane-wise arithmetic that the compiler turns into SIMD on every
 //!   target (no `unsafe`); leaves hold up to `leaf` primitives as [`Block`]s of four
@@ -25,10 +26,13 @@
 //! planes from the direction's sign bit; a ray lying in a box's face plane (0·∞ = NaN on that
 //! axis) leaves the interval as it was, so it counts as inside.
 
+mod spatial;
+
 use super::block::{self, Block, BlockRay, EMPTY_LANE, LANES};
 use super::store::{PrimStore, finite};
 use super::{Accel, CellCensus, Counters, Hit, Primitives, Spec, SpecError, StructureStats};
 use crate::geometry::{Aabb, PreparedRay, Ray, Vec3, intersect_triangle};
+use spatial::SpatialContext;
 
 /// Every primitive's box is widened by this fraction of the scene's magnitude (64 ulps of
 /// it), as the grids' cells are (`hierarchy`): a box's entry distance then lies before any hit
@@ -570,7 +574,11 @@ impl Accel for Bvh {
         ("bins", "SAH bins per axis, 2..32 (default 16)"),
         (
             "traversal",
-            "cost of a traversal step relative to a primitive test, for the SAH, 0..100 (default 1)",
+            "cost of a traversal step relative to a block test, for the SAH, 0..100 (default 1)",
+        ),
+        (
+            "spatial",
+            "spatial splits (SBVH): extra references allowed, as a fraction of the primitives, 0..4 (default 0: none)",
         ),
     ];
 
@@ -578,10 +586,12 @@ impl Accel for Bvh {
         let leaf_size = spec.usize_in("leaf", 8, 1, MAX_LEAF)?;
         let bins = spec.usize_in("bins", 16, 2, MAX_BINS)?;
         let traversal_cost = spec.f32_in("traversal", 1.0, 0.0, 100.0)?;
+        let spatial = spec.f32_in("spatial", 0.0, 0.0, 4.0)?;
         let n = prims.len();
-        if n >= 1 << LEAF_START_BITS {
+        let budget = (spatial as f64 * n as f64) as usize;
+        if n + budget >= 1 << LEAF_START_BITS {
             return Err(SpecError::Build(format!(
-                "{n} primitives: the bvh holds at most 2^27-1"
+                "{n} primitives and {budget} extra references: the bvh holds at most 2^27-1"
             )));
         }
         let store = PrimStore::build(prims);
@@ -616,7 +626,16 @@ impl Accel for Bvh {
             traversal_cost,
         };
         let ext = extents(&items);
-        let root = builder.build(&mut items, 0, 0, ext);
+        let (root, items) = if budget > 0 {
+            let ctx = SpatialContext {
+                tris: store.triangles(),
+                margin,
+                root_area: ext.0.surface_area(),
+            };
+            builder.build_spatial(&ctx, items, 0, budget)
+        } else {
+            (builder.build(&mut items, 0, 0, ext), items)
+        };
         let mut bvh = Bvh {
             nodes: Vec::new(),
             blocks: Vec::new(),
