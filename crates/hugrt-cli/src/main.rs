@@ -371,10 +371,10 @@ fn run(cli: Cli) -> Result<()> {
                 hugrt::batch::decode_rays(&bytes).with_context(|| rays.display().to_string())?;
             let (acc, build_s) = build(&scene, &accel)?;
             let mut times = Vec::new();
-            let mut result = Vec::new();
+            let mut result = vec![None; ray_list.len()];
             for _ in 0..repeat {
                 let t = Instant::now();
-                result = hugrt::batch::trace(&scene, &acc, &ray_list, any_hit);
+                hugrt::batch::trace_into(&scene, &acc, &ray_list, any_hit, &mut result);
                 times.push(t.elapsed().as_secs_f64());
             }
             let trace_s = bench::median(times);

@@ -41,8 +41,12 @@ fn closest_hit(c: &mut Criterion) {
         let accel = AnyAccel::build(&scene, spec).unwrap();
         for (name, rays) in &sets {
             g.throughput(Throughput::Elements(rays.len() as u64));
+            let mut out = vec![None; rays.len()];
             g.bench_function(BenchmarkId::new(*spec, name), |b| {
-                b.iter(|| black_box(batch::trace(&scene, &accel, rays, false)))
+                b.iter(|| {
+                    batch::trace_into(&scene, &accel, rays, false, &mut out);
+                    black_box(&out);
+                })
             });
         }
     }

@@ -24,7 +24,7 @@
 //! batches of rays all the time is in the structure, and `T_TT/T_TR` is not reported.
 
 use crate::accel::{AnyAccel, CellCensus, Hit, LevelCounts, Primitives, RayCounters, SpecError};
-use crate::batch::{camera_rays, count, incoherent_rays, trace};
+use crate::batch::{camera_rays, count, incoherent_rays, trace_into};
 use crate::geometry::Ray;
 use crate::render::{
     RenderSettings, Rendered, SoftShadows, render_recorded, render_replayed, render_soft,
@@ -231,10 +231,10 @@ pub fn bench_scene(
         let (trace_secs, counters, rays_traced, hits, differences, t_tt) = match workload {
             Workload::Camera { .. } | Workload::Incoherent { .. } => {
                 let mut secs = Vec::with_capacity(repeat);
-                let mut answers = Vec::new();
+                let mut answers = vec![None; rays.len()];
                 for _ in 0..repeat {
                     let t = Instant::now();
-                    answers = trace(scene, &accel, &rays, false);
+                    trace_into(scene, &accel, &rays, false, &mut answers);
                     secs.push(t.elapsed().as_secs_f64());
                 }
                 let counters = count(scene, &accel, &rays, false);
