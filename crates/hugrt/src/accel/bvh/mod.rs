@@ -104,11 +104,14 @@ pub struct Bvh {
     blocks: Vec<Block>,
     /// Primitives in the blocks (lanes not empty).
     filled: usize,
-    /// The store holds primitives other than triangles, which blocks name by store entry.
+    /// The primitives that are not triangles, which blocks name by store entry (the store's
+    /// own triangles are released once the blocks hold them).
     store: PrimStore,
+    /// Whether there are any such primitives.
     others: bool,
     leaf_size: usize,
     bins: usize,
+    spatial: f32,
     stats: TreeStats,
 }
 
@@ -644,6 +647,7 @@ impl Accel for Bvh {
             store,
             leaf_size,
             bins,
+            spatial,
             stats: TreeStats::default(),
         };
         // The root is always a node: a lone leaf gets a node of one child.
@@ -806,6 +810,7 @@ impl Accel for Bvh {
         let mut s = StructureStats::default();
         s.push("leaf", self.leaf_size as f64);
         s.push("bins", self.bins as f64);
+        s.push("spatial", self.spatial as f64);
         s.push("nodes", self.nodes.len() as f64);
         s.push("leaves", leaves as f64);
         // Every leaf holds at least one primitive: the build never makes an empty one.
