@@ -282,36 +282,50 @@ impl Builder {
             }
             let boxes = &bins.boxes[axis * nb..(axis + 1) * nb];
             let counts = &bins.counts[axis * nb..(axis + 1) * nb];
-            // Area and count of the bins right of each plane, swept from the right.
-            let mut right_area = [0f32; MAX_BINS];
-            let mut right_count = [0u32; MAX_BINS];
-            let (mut acc, mut cnt) = (Aabb::EMPTY, 0);
-            for b in (1..nb).rev() {
-                acc = acc.union(&boxes[b]);
-                cnt += counts[b];
-                right_area[b] = if acc.is_empty() {
-                    0.0
-                } else {
-                    acc.surface_area()
-                };
-                right_count[b] = cnt;
-            }
-            let (mut acc, mut cnt) = (Aabb::EMPTY, 0);
-            for b in 1..nb {
-                acc = acc.union(&boxes[b - 1]);
-                cnt += counts[b - 1];
-                if cnt == 0 || right_count[b] == 0 {
-                    continue;
-                }
-                let cost =
-                    acc.surface_area() * blocks(cnt) + right_area[b] * blocks(right_count[b]);
-                if best.is_none_or(|(c, _, _)| cost < c) {
-                    best = Some((cost, axis, centres.min[axis] + b as f32 / scale[axis]));
-                }
+            if let Some((cost, b)) = cheapest_plane(boxes, counts, counts)
+                && best.is_none_or(|(c, _, _)| cost < c)
+            {
+                best = Some((cost, axis, centres.min[axis] + b as f32 / scale[axis]));
             }
         }
         best.map(|(cost, axis, position)| (self.traversal_cost + cost / area, axis, position))
     }
+}
+
+/// The SAH's cheapest plane between bins (sum of each side's area times its [`blocks`]) and
+/// the first bin right of it. `entries[b]` counts the references whose first bin is `b`,
+/// `exits[b]` those whose last is: for an object split both are the bins' counts.
+fn cheapest_plane(boxes: &[Aabb], entries: &[u32], exits: &[u32]) -> Option<(f32, usize)> {
+    let nb = boxes.len();
+    // Area and count of the bins right of each plane, swept from the right.
+    let mut right_area = [0f32; MAX_BINS];
+    let mut right_count = [0u32; MAX_BINS];
+    let (mut acc, mut cnt) = (Aabb::EMPTY, 0);
+    for b in (1..nb).rev() {
+        acc = acc.union(&boxes[b]);
+        cnt += exits[b];
+        right_area[b] = if acc.is_empty() {
+            0.0
+        } else {
+            acc.surface_area()
+        };
+        right_count[b] = cnt;
+    }
+    let mut best: Option<(f32, usize)> = None;
+    let (mut acc, mut cnt) = (Aabb::EMPTY, 0);
+    for b in 1..nb {
+        acc = acc.union(&boxes[b - 1]);
+        cnt += entries[b - 1];
+        // (A cut reference may leave a bin with a count and no piece.)
+        if cnt == 0 || right_count[b] == 0 || acc.is_empty() {
+            continue;
+        }
+        let cost = acc.surface_area() * blocks(cnt) + right_area[b] * blocks(right_count[b]);
+        if best.is_none_or(|(c, _)| cost < c) {
+            best = Some((cost, b));
+        }
+    }
+    best
 }
 
 /// The SAH's cost of testing `n` primitives: a block of [`LANES`] costs one test, whether full

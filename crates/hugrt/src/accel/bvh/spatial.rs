@@ -12,7 +12,7 @@
 //! primitives are never cut: their piece is their box cut by the plane.
 
 use super::{BuildNode, Builder, Item, MEDIAN_DEPTH, PARALLEL_ITEMS, blocks, extents};
-use super::{median, partition};
+use super::{cheapest_plane, median, partition};
 use crate::geometry::{Aabb, Vec3};
 
 /// Overlap of the object split's children, as a fraction of the root's surface area, above
@@ -66,17 +66,12 @@ impl Builder {
         } else {
             None
         };
-        let best = match (object, spatial) {
-            (Some(o), Some(s)) => Some(if s.0 < o.0 { s } else { o }),
-            (o, s) => o.or(s),
-        };
-        if n <= self.leaf_size && best.is_none_or(|(cost, _, _)| cost >= blocks(n as u32)) {
-            return (leaf, items);
-        }
-        // The spatial split when it is the best and keeps to the budget and makes progress.
+        let spatial_wins = spatial.is_some_and(|s| object.is_none_or(|o| s.0 < o.0));
+        let leaf_cost = blocks(n as u32);
+        // The spatial split when it is the cheaper, keeps to the budget and makes progress.
         let mut sides = None;
-        if let (Some((cost, axis, position)), Some(s)) = (best, spatial)
-            && cost == s.0
+        if let Some((cost, axis, position)) = spatial.filter(|_| spatial_wins)
+            && !(n <= self.leaf_size && cost >= leaf_cost)
         {
             let (left, right) = chop(ctx, &items, axis, position);
             let extra = (left.len() + right.len()).saturating_sub(n);
@@ -90,6 +85,13 @@ impl Builder {
                 let left_budget = rest * left.len() / (left.len() + right.len());
                 sides = Some((left, right, left_budget, rest - left_budget));
             }
+        }
+        // Otherwise the object split, when it beats the leaf.
+        if sides.is_none()
+            && n <= self.leaf_size
+            && object.is_none_or(|(cost, _, _)| cost >= leaf_cost)
+        {
+            return (leaf, items);
         }
         let (left, right, left_budget, right_budget) = sides.unwrap_or_else(|| {
             let mid = match object
@@ -169,31 +171,10 @@ impl Builder {
                     *bin_box = bin_box.union(&piece(ctx, it, axis, lo, hi));
                 }
             }
-            let mut right_area = vec![0f32; nb];
-            let mut right_count = vec![0u32; nb];
-            let (mut acc, mut cnt) = (Aabb::EMPTY, 0);
-            for b in (1..nb).rev() {
-                acc = acc.union(&boxes[b]);
-                cnt += exits[b];
-                right_area[b] = if acc.is_empty() {
-                    0.0
-                } else {
-                    acc.surface_area()
-                };
-                right_count[b] = cnt;
-            }
-            let (mut acc, mut cnt) = (Aabb::EMPTY, 0);
-            for b in 1..nb {
-                acc = acc.union(&boxes[b - 1]);
-                cnt += entries[b - 1];
-                if cnt == 0 || right_count[b] == 0 || acc.is_empty() {
-                    continue;
-                }
-                let cost =
-                    acc.surface_area() * blocks(cnt) + right_area[b] * blocks(right_count[b]);
-                if best.is_none_or(|(c, _, _)| cost < c) {
-                    best = Some((cost, axis, plane(b)));
-                }
+            if let Some((cost, b)) = cheapest_plane(&boxes, &entries, &exits)
+                && best.is_none_or(|(c, _, _)| cost < c)
+            {
+                best = Some((cost, axis, plane(b)));
             }
         }
         best.map(|(cost, axis, position)| (self.traversal_cost + cost / area, axis, position))
