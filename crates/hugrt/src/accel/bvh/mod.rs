@@ -32,6 +32,7 @@ use super::block::{self, Block, BlockRay, EMPTY_LANE, LANES};
 use super::store::{PrimStore, finite};
 use super::{Accel, CellCensus, Counters, Hit, Primitives, Spec, SpecError, StructureStats};
 use crate::geometry::{Aabb, PreparedRay, Ray, Vec3, intersect_triangle};
+use glam::Vec4;
 use spatial::SpatialContext;
 
 /// Every primitive's box is widened by this fraction of the scene's magnitude (64 ulps of
@@ -138,6 +139,30 @@ enum BuildNode {
 }
 
 impl BuildNode {
+    /// A leaf of `items`, the `first`-th and on of the whole list, which it sorts by store
+    /// entry: triangles first (other kinds go in the last lanes), each kind in space order.
+    /// Sorted here, in the parallel build, rather than in the sequential [`Flat::emit`].
+    fn leaf(items: &mut [Item], bounds: Aabb, first: usize) -> Self {
+        items.sort_unstable_by_key(Item::slot);
+        BuildNode::Leaf {
+            bounds,
+            start: first,
+            count: items.len(),
+        }
+    }
+
+    /// Inner nodes and blocks of the subtree: bounds on what [`Flat::emit`] makes of it, to
+    /// reserve (the blocks' list grew by copies and page faults, a fifth of the flattening).
+    fn census(&self) -> (usize, usize) {
+        match self {
+            BuildNode::Leaf { count, .. } => (0, count.div_ceil(LANES)),
+            BuildNode::Inner { children, .. } => {
+                let (a, b) = (children[0].census(), children[1].census());
+                (1 + a.0 + b.0, a.1 + b.1)
+            }
+        }
+    }
+
     fn bounds(&self) -> &Aabb {
         match self {
             BuildNode::Leaf { bounds, .. } | BuildNode::Inner { bounds, .. } => bounds,
@@ -145,12 +170,102 @@ impl BuildNode {
     }
 }
 
-/// One primitive during the build: its store entry, box and box centre.
+/// One primitive during the build: its box, with its store entry in the spare lane (32
+/// bytes, as Embree's `PrimRef`: a partition moves 32 bytes an item, and its centre is one
+/// addition and one halving away).
 #[derive(Clone, Copy)]
 struct Item {
-    slot: u32,
-    bounds: Aabb,
-    centre: Vec3,
+    /// `x, y, z` the box's minimum, `w` the store entry's bits under [`SLOT_EXPONENT`].
+    lo: Vec4,
+    /// `x, y, z` the box's maximum.
+    hi: Vec4,
+}
+
+impl Item {
+    fn new(slot: u32, b: &Aabb) -> Self {
+        Item {
+            lo: b.min.extend(f32::from_bits(SLOT_EXPONENT | slot)),
+            hi: b.max.extend(0.0),
+        }
+    }
+
+    fn slot(&self) -> u32 {
+        self.lo.w.to_bits() & !SLOT_EXPONENT
+    }
+
+    fn bounds(&self) -> Bounds {
+        Bounds {
+            lo: self.lo,
+            hi: self.hi,
+        }
+    }
+
+    fn aabb(&self) -> Aabb {
+        self.bounds().aabb()
+    }
+
+    /// The box's centre (`w` meaningless).
+    fn centre(&self) -> Vec4 {
+        (self.lo + self.hi) * 0.5
+    }
+}
+
+/// Set in an [`Item`]'s spare lane above its store entry (below 2^27, as
+/// [`LEAF_START_BITS`] has it), so that the lane holds a normal float: arithmetic on the bits
+/// of a small integer, a subnormal float, made the build four times slower.
+const SLOT_EXPONENT: u32 = 1 << 30;
+
+/// A box during the build as two four-lane vectors, `w` lanes ignored: a union is one
+/// `minps` and one `maxps` where [`Aabb`]'s three-lane vectors compile to a compare and a
+/// blend per lane (an eighth of a build's time went to those).
+#[derive(Clone, Copy)]
+struct Bounds {
+    lo: Vec4,
+    hi: Vec4,
+}
+
+impl Bounds {
+    const EMPTY: Bounds = Bounds {
+        lo: Vec4::INFINITY,
+        hi: Vec4::NEG_INFINITY,
+    };
+
+    fn from_aabb(b: &Aabb) -> Self {
+        Bounds {
+            lo: b.min.extend(0.0),
+            hi: b.max.extend(0.0),
+        }
+    }
+
+    fn aabb(&self) -> Aabb {
+        Aabb::new(self.lo.truncate(), self.hi.truncate())
+    }
+
+    #[must_use]
+    fn union(&self, o: &Bounds) -> Bounds {
+        Bounds {
+            lo: self.lo.min(o.lo),
+            hi: self.hi.max(o.hi),
+        }
+    }
+
+    #[must_use]
+    fn grow(&self, p: Vec4) -> Bounds {
+        Bounds {
+            lo: self.lo.min(p),
+            hi: self.hi.max(p),
+        }
+    }
+
+    fn is_empty(&self) -> bool {
+        self.lo.cmple(self.hi).bitmask() & 0b111 != 0b111
+    }
+
+    /// As [`Aabb::surface_area`], for a box that is not empty.
+    fn surface_area(&self) -> f32 {
+        let e = self.hi - self.lo;
+        2.0 * (e.x * e.y + e.y * e.z + e.z * e.x)
+    }
 }
 
 struct Builder {
@@ -169,15 +284,11 @@ impl Builder {
     fn build(&self, items: &mut [Item], first: usize, depth: usize, ext: Extents) -> BuildNode {
         let (bounds, centres) = ext;
         let n = items.len();
-        let leaf = BuildNode::Leaf {
-            bounds,
-            start: first,
-            count: n,
-        };
+        let leaf = |items: &mut [Item]| BuildNode::leaf(items, bounds, first);
         // No split costs less than its traversal step: where that alone is as dear as the
         // leaf (four items or fewer at the default costs), the SAH is not asked (same tree).
         if n <= 1 || n <= self.leaf_size && blocks(n as u32) <= self.traversal_cost {
-            return leaf;
+            return leaf(items);
         }
         let plane = if depth < MEDIAN_DEPTH {
             self.sah_split(items, &bounds, &centres)
@@ -187,8 +298,10 @@ impl Builder {
         // A leaf when it is small enough and no plane costs less than testing everything
         // (SAH: a test costs 1, a traversal step `traversal_cost`).
         let split = match plane {
-            Some((cost, _, _)) if n <= self.leaf_size && cost >= blocks(n as u32) => return leaf,
-            None if n <= self.leaf_size => return leaf,
+            Some((cost, _, _)) if n <= self.leaf_size && cost >= blocks(n as u32) => {
+                return leaf(items);
+            }
+            None if n <= self.leaf_size => return leaf(items),
             Some((_, axis, position)) => partition(items, axis, position),
             None => None,
         };
@@ -232,62 +345,73 @@ impl Builder {
         let scale = Vec3::splat(nb as f32) / extent;
         // One pass over the items fills the bins of all three axes; large nodes bin in
         // parallel chunks whose bins are then merged.
+        let (low, scale) = (centres.min.extend(0.0), scale.extend(0.0));
+        let last = Vec4::splat((nb - 1) as f32);
         let put = |bins: &mut Bins, it: &Item| {
-            let b = ((it.centre - centres.min) * scale).to_array();
-            for (axis, x) in b.into_iter().enumerate() {
-                // NaN (an axis of no extent: 0·∞) and overflow clamp into the bins.
-                let k = axis * nb + (x as usize).min(nb - 1);
-                bins.boxes[k] = bins.boxes[k].union(&it.bounds);
+            // NaN (an axis of no extent: 0·∞) and overflow clamp into the bins (`maxps`
+            // answers its second operand for a NaN).
+            let k = ((it.centre() - low) * scale).max(Vec4::ZERO).min(last);
+            let b = it.bounds();
+            for (axis, x) in k.to_array().into_iter().take(3).enumerate() {
+                let k = axis * nb + x as i32 as usize;
+                bins.boxes[k] = bins.boxes[k].union(&b);
                 bins.counts[k] += 1;
             }
         };
         // Neighbouring items tend to fall in the same bins (the store is in Morton order), so
         // each would wait for the last one's stores to its bin: even and odd items fill
         // separate bins, merged at the end, which halves those chains of waiting.
-        let fill = |bins: &mut Bins, chunk: &[Item]| {
+        let fill = |bins: &mut Bins, odd: &mut Bins, chunk: &[Item]| {
             if chunk.len() < PAIRED_BINNING {
                 chunk.iter().for_each(|it| put(bins, it));
                 return;
             }
-            let mut odd = Bins::new(nb);
+            odd.reset(nb);
             let pairs = chunk.chunks_exact(2);
             if let [last] = pairs.remainder() {
                 put(bins, last);
             }
             for pair in pairs {
                 put(bins, &pair[0]);
-                put(&mut odd, &pair[1]);
+                put(odd, &pair[1]);
             }
-            bins.absorb(&odd);
+            bins.absorb(odd);
         };
-        let bins = if items.len() > PARALLEL_BINNING {
+        let choose = |bins: &Bins| {
+            let mut best: Option<(f32, usize, f32)> = None;
+            for axis in 0..3 {
+                if extent[axis].is_nan() || extent[axis] <= 0.0 {
+                    continue;
+                }
+                let boxes = &bins.boxes[axis * nb..(axis + 1) * nb];
+                let counts = &bins.counts[axis * nb..(axis + 1) * nb];
+                if let Some((cost, b)) = cheapest_plane(boxes, counts, counts)
+                    && best.is_none_or(|(c, _, _)| cost < c)
+                {
+                    best = Some((cost, axis, centres.min[axis] + b as f32 / scale[axis]));
+                }
+            }
+            best
+        };
+        let best = if items.len() > PARALLEL_BINNING {
             use rayon::prelude::*;
-            items
+            let bins = items
                 .par_chunks(PARALLEL_BINNING / 4)
                 .map(|chunk| {
-                    let mut bins = Bins::new(nb);
-                    fill(&mut bins, chunk);
+                    let (mut bins, mut odd) = (Bins::new(nb), Bins::new(nb));
+                    fill(&mut bins, &mut odd, chunk);
                     bins
                 })
-                .reduce(|| Bins::new(nb), |a, b| a.merge(&b))
+                .reduce(|| Bins::new(nb), |a, b| a.merge(&b));
+            choose(&bins)
         } else {
-            let mut bins = Bins::new(nb);
-            fill(&mut bins, items);
-            bins
+            // No rayon call inside, so no other node's binning runs on this thread meanwhile.
+            SCRATCH.with_borrow_mut(|[bins, odd]| {
+                bins.reset(nb);
+                fill(bins, odd, items);
+                choose(bins)
+            })
         };
-        let mut best: Option<(f32, usize, f32)> = None;
-        for axis in 0..3 {
-            if extent[axis].is_nan() || extent[axis] <= 0.0 {
-                continue;
-            }
-            let boxes = &bins.boxes[axis * nb..(axis + 1) * nb];
-            let counts = &bins.counts[axis * nb..(axis + 1) * nb];
-            if let Some((cost, b)) = cheapest_plane(boxes, counts, counts)
-                && best.is_none_or(|(c, _, _)| cost < c)
-            {
-                best = Some((cost, axis, centres.min[axis] + b as f32 / scale[axis]));
-            }
-        }
         best.map(|(cost, axis, position)| (self.traversal_cost + cost / area, axis, position))
     }
 }
@@ -295,12 +419,12 @@ impl Builder {
 /// The SAH's cheapest plane between bins (sum of each side's area times its [`blocks`]) and
 /// the first bin right of it. `entries[b]` counts the references whose first bin is `b`,
 /// `exits[b]` those whose last is: for an object split both are the bins' counts.
-fn cheapest_plane(boxes: &[Aabb], entries: &[u32], exits: &[u32]) -> Option<(f32, usize)> {
+fn cheapest_plane(boxes: &[Bounds], entries: &[u32], exits: &[u32]) -> Option<(f32, usize)> {
     let nb = boxes.len();
     // Area and count of the bins right of each plane, swept from the right.
     let mut right_area = [0f32; MAX_BINS];
     let mut right_count = [0u32; MAX_BINS];
-    let (mut acc, mut cnt) = (Aabb::EMPTY, 0);
+    let (mut acc, mut cnt) = (Bounds::EMPTY, 0);
     for b in (1..nb).rev() {
         acc = acc.union(&boxes[b]);
         cnt += exits[b];
@@ -312,7 +436,7 @@ fn cheapest_plane(boxes: &[Aabb], entries: &[u32], exits: &[u32]) -> Option<(f32
         right_count[b] = cnt;
     }
     let mut best: Option<(f32, usize)> = None;
-    let (mut acc, mut cnt) = (Aabb::EMPTY, 0);
+    let (mut acc, mut cnt) = (Bounds::EMPTY, 0);
     for b in 1..nb {
         acc = acc.union(&boxes[b - 1]);
         cnt += entries[b - 1];
@@ -339,9 +463,9 @@ type Extents = (Aabb, Aabb);
 
 /// The [`Extents`] of the items (in parallel for large nodes).
 fn extents(items: &[Item]) -> Extents {
-    let fold = |(b, c): (Aabb, Aabb), it: &Item| (b.union(&it.bounds), c.grow(it.centre));
-    let empty = (Aabb::EMPTY, Aabb::EMPTY);
-    if items.len() > PARALLEL_BINNING {
+    let fold = |(b, c): (Bounds, Bounds), it: &Item| (b.union(&it.bounds()), c.grow(it.centre()));
+    let empty = (Bounds::EMPTY, Bounds::EMPTY);
+    let (b, c) = if items.len() > PARALLEL_BINNING {
         use rayon::prelude::*;
         items
             .par_iter()
@@ -349,7 +473,8 @@ fn extents(items: &[Item]) -> Extents {
             .reduce(|| empty, |a, b| (a.0.union(&b.0), a.1.union(&b.1)))
     } else {
         items.iter().fold(empty, fold)
-    }
+    };
+    (b.aabb(), c.aabb())
 }
 
 /// Most bins per axis (the `bins` key's upper bound).
@@ -363,16 +488,38 @@ const PARALLEL_BINNING: usize = 1 << 16;
 
 /// The boxes and counts of the bins of the three axes, axis after axis.
 struct Bins {
-    boxes: Vec<Aabb>,
+    boxes: Vec<Bounds>,
     counts: Vec<u32>,
 }
 
+thread_local! {
+    /// Each thread's bins (and odd items' bins) for the nodes it bins alone: a node's binning
+    /// allocated them afresh, and most nodes are small, so the allocations took a twentieth
+    /// of a build.
+    static SCRATCH: std::cell::RefCell<[Bins; 2]> = const {
+        std::cell::RefCell::new([Bins::EMPTY, Bins::EMPTY])
+    };
+}
+
 impl Bins {
+    const EMPTY: Bins = Bins {
+        boxes: Vec::new(),
+        counts: Vec::new(),
+    };
+
     fn new(bins: usize) -> Self {
         Bins {
-            boxes: vec![Aabb::EMPTY; 3 * bins],
+            boxes: vec![Bounds::EMPTY; 3 * bins],
             counts: vec![0; 3 * bins],
         }
+    }
+
+    /// Empty bins, `bins` per axis, in the space these had.
+    fn reset(&mut self, bins: usize) {
+        self.boxes.clear();
+        self.boxes.resize(3 * bins, Bounds::EMPTY);
+        self.counts.clear();
+        self.counts.resize(3 * bins, 0);
     }
 
     fn merge(mut self, o: &Bins) -> Bins {
@@ -394,20 +541,22 @@ impl Bins {
 /// many there are and the extents of both sides, gathered in the same pass, or `None` when a
 /// side is empty.
 fn partition(items: &mut [Item], axis: usize, position: f32) -> Option<(usize, Extents, Extents)> {
-    let mut left = (Aabb::EMPTY, Aabb::EMPTY);
-    let mut right = (Aabb::EMPTY, Aabb::EMPTY);
+    let mut left = (Bounds::EMPTY, Bounds::EMPTY);
+    let mut right = (Bounds::EMPTY, Bounds::EMPTY);
     let mut i = 0;
     for j in 0..items.len() {
         let it = items[j];
-        if it.centre[axis] < position {
-            left = (left.0.union(&it.bounds), left.1.grow(it.centre));
+        let c = it.centre();
+        if c[axis] < position {
+            left = (left.0.union(&it.bounds()), left.1.grow(c));
             items.swap(i, j);
             i += 1;
         } else {
-            right = (right.0.union(&it.bounds), right.1.grow(it.centre));
+            right = (right.0.union(&it.bounds()), right.1.grow(c));
         }
     }
-    (i > 0 && i < items.len()).then_some((i, left, right))
+    let aabbs = |(b, c): (Bounds, Bounds)| (b.aabb(), c.aabb());
+    (i > 0 && i < items.len()).then_some((i, aabbs(left), aabbs(right)))
 }
 
 /// Splits at the median of the centres along their widest axis (ties by store entry, so the
@@ -423,17 +572,29 @@ fn median(items: &mut [Item], centres: &Aabb) -> usize {
     };
     let mid = items.len() / 2;
     items.select_nth_unstable_by(mid, |a, b| {
-        a.centre[axis]
-            .total_cmp(&b.centre[axis])
-            .then(a.slot.cmp(&b.slot))
+        a.centre()[axis]
+            .total_cmp(&b.centre()[axis])
+            .then(a.slot().cmp(&b.slot()))
     });
     mid
 }
 
-impl Bvh {
-    /// Flattens the binary tree into nodes of four, depth first; returns the child reference
-    /// of `node`.
-    fn emit(&mut self, node: BuildNode, items: &[Item], depth: usize) -> u32 {
+/// The tree flattened into nodes of four and blocks.
+#[derive(Default)]
+struct Flat {
+    nodes: Vec<Node>,
+    blocks: Vec<Block>,
+    /// Lanes filled.
+    filled: usize,
+    stats: TreeStats,
+}
+
+impl Flat {
+    /// Flattens the binary tree into nodes of four, depth first (node, then each child's
+    /// subtree in turn); returns the child reference of `node`. (Flattening large subtrees
+    /// apart in parallel and appending them measured slower: the copies and the page faults
+    /// of the growing lists cost more than the work shared.)
+    fn emit(&mut self, store: &PrimStore, node: BuildNode, items: &[Item], depth: usize) -> u32 {
         match node {
             BuildNode::Leaf { count: 0, .. } => NO_CHILD,
             BuildNode::Leaf {
@@ -442,16 +603,13 @@ impl Bvh {
                 count,
             } => {
                 let first = self.blocks.len();
-                let mut slots: Vec<u32> =
-                    items[start..start + count].iter().map(|i| i.slot).collect();
-                // Store order: triangles first (other kinds in the last lanes), each kind in
-                // space order.
-                slots.sort_unstable();
-                for lanes in slots.chunks(LANES) {
+                // In store order ([`BuildNode::leaf`]).
+                for lanes in items[start..start + count].chunks(LANES) {
                     let mut block = Block::EMPTY;
-                    for (l, &s) in lanes.iter().enumerate() {
-                        match self.store.triangle(s) {
-                            Some(t) => block.set(l, t, self.store.id(s)),
+                    for (l, it) in lanes.iter().enumerate() {
+                        let s = it.slot();
+                        match store.triangle(s) {
+                            Some(t) => block.set(l, t, store.id(s)),
                             None => block.ids[l] = OTHER_LANE | s,
                         }
                     }
@@ -499,13 +657,16 @@ impl Bvh {
                     ],
                     children: [NO_CHILD; WIDTH],
                 });
-                for (lane, kid) in kids.into_iter().enumerate() {
-                    let b = *kid.bounds();
-                    let r = self.emit(kid, items, depth + 1);
+                let boxes: Vec<Aabb> = kids.iter().map(|k| *k.bounds()).collect();
+                let refs: Vec<u32> = kids
+                    .into_iter()
+                    .map(|kid| self.emit(store, kid, items, depth + 1))
+                    .collect();
+                let node = &mut self.nodes[index];
+                for (lane, (b, r)) in boxes.iter().zip(refs).enumerate() {
                     if r == NO_CHILD {
                         continue;
                     }
-                    let node = &mut self.nodes[index];
                     for a in 0..3 {
                         node.bounds[a][lane] = b.min[a];
                         node.bounds[3 + a][lane] = b.max[a];
@@ -516,7 +677,9 @@ impl Bvh {
             }
         }
     }
+}
 
+impl Bvh {
     /// Bytes of the nodes and leaf references, without the store.
     fn structure_bytes(&self) -> usize {
         self.nodes.capacity() * std::mem::size_of::<Node>()
@@ -613,30 +776,25 @@ impl Accel for Bvh {
         }
         let store = PrimStore::build(prims);
         use rayon::prelude::*;
-        let boxes: Vec<(u32, Aabb)> = (0..store.len() as u32)
+        let mut items: Vec<Item> = (0..store.len() as u32)
             .into_par_iter()
-            .filter_map(|s| {
-                let b = store.bounds(prims, s);
-                finite(&b).then_some((s, b))
-            })
+            .map(|s| Item::new(s, &store.bounds(prims, s)))
             .collect();
-        let scene = boxes
-            .par_iter()
-            .map(|(_, b)| *b)
-            .reduce(|| Aabb::EMPTY, |a, b| a.union(&b));
+        // Primitives with a NaN or infinite coordinate are in no leaf: no finite ray hits them.
+        if !items.par_iter().all(|it| finite(&it.aabb())) {
+            items.retain(|it| finite(&it.aabb()));
+        }
+        let scene = extents(&items).0;
         let margin = if scene.is_empty() {
             0.0
         } else {
             scene.magnitude().max(scene.extent().max_element()) * MARGIN
         };
-        let mut items: Vec<Item> = boxes
-            .into_par_iter()
-            .map(|(slot, b)| Item {
-                slot,
-                bounds: b.expand(margin),
-                centre: b.center(),
-            })
-            .collect();
+        let widen = Vec4::new(margin, margin, margin, 0.0);
+        items.par_iter_mut().for_each(|it| {
+            it.lo -= widen;
+            it.hi += widen;
+        });
         let builder = Builder {
             leaf_size,
             bins,
@@ -653,17 +811,6 @@ impl Accel for Bvh {
         } else {
             (builder.build(&mut items, 0, 0, ext), items)
         };
-        let mut bvh = Bvh {
-            nodes: Vec::new(),
-            blocks: Vec::new(),
-            filled: 0,
-            others: store.triangles().len() < store.len(),
-            store,
-            leaf_size,
-            bins,
-            spatial,
-            stats: TreeStats::default(),
-        };
         // The root is always a node: a lone leaf gets a node of one child.
         let root = match root {
             leaf @ BuildNode::Leaf { .. } => BuildNode::Inner {
@@ -679,9 +826,32 @@ impl Accel for Bvh {
             },
             inner => inner,
         };
-        bvh.emit(root, &items, 0);
-        bvh.nodes.shrink_to_fit();
-        bvh.blocks.shrink_to_fit();
+        let (inner, blocks) = root.census();
+        let mut flat = Flat {
+            nodes: Vec::with_capacity(inner),
+            blocks: Vec::with_capacity(blocks),
+            ..Flat::default()
+        };
+        flat.emit(&store, root, &items, 0);
+        let Flat {
+            mut nodes,
+            mut blocks,
+            filled,
+            stats,
+        } = flat;
+        nodes.shrink_to_fit();
+        blocks.shrink_to_fit();
+        let mut bvh = Bvh {
+            nodes,
+            blocks,
+            filled,
+            others: store.triangles().len() < store.len(),
+            store,
+            leaf_size,
+            bins,
+            spatial,
+            stats,
+        };
         // The blocks hold the triangles now; the store keeps the other kinds.
         bvh.store.release_triangles();
         Ok(bvh)

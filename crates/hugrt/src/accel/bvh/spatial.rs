@@ -11,7 +11,7 @@
 //! same on any number of threads; no reference unsplitting. Spheres, cones and other
 //! primitives are never cut: their piece is their box cut by the plane.
 
-use super::{BuildNode, Builder, Item, MEDIAN_DEPTH, PARALLEL_ITEMS, blocks, extents};
+use super::{Bounds, BuildNode, Builder, Item, MEDIAN_DEPTH, PARALLEL_ITEMS, blocks, extents};
 use super::{cheapest_plane, median, partition};
 use crate::geometry::{Aabb, Vec3};
 
@@ -40,13 +40,9 @@ impl Builder {
     ) -> (BuildNode, Vec<Item>) {
         let (bounds, centres) = extents(&items);
         let n = items.len();
-        let leaf = BuildNode::Leaf {
-            bounds,
-            start: 0,
-            count: n,
-        };
+        let leaf = |mut items: Vec<Item>| (BuildNode::leaf(&mut items, bounds, 0), items);
         if n <= 1 || n <= self.leaf_size && blocks(n as u32) <= self.traversal_cost {
-            return (leaf, items);
+            return leaf(items);
         }
         let object = if depth < MEDIAN_DEPTH {
             self.sah_split(&items, &bounds, &centres)
@@ -91,7 +87,7 @@ impl Builder {
             && n <= self.leaf_size
             && object.is_none_or(|(cost, _, _)| cost >= leaf_cost)
         {
-            return (leaf, items);
+            return leaf(items);
         }
         let (left, right, left_budget, right_budget) = sides.unwrap_or_else(|| {
             let mid = match object
@@ -146,15 +142,15 @@ impl Builder {
             }
             let bin = |x: f32| (((x - lo) / width) as usize).min(nb - 1);
             let plane = |b: usize| lo + b as f32 * width;
-            let mut boxes = vec![Aabb::EMPTY; nb];
+            let mut boxes = vec![Bounds::EMPTY; nb];
             let mut entries = vec![0u32; nb];
             let mut exits = vec![0u32; nb];
             for it in items {
-                let (first, last) = (bin(it.bounds.min[axis]), bin(it.bounds.max[axis]));
+                let (first, last) = (bin(it.lo[axis]), bin(it.hi[axis]));
                 entries[first] += 1;
                 exits[last] += 1;
                 if first == last {
-                    boxes[first] = boxes[first].union(&it.bounds);
+                    boxes[first] = boxes[first].union(&it.bounds());
                     continue;
                 }
                 for (b, bin_box) in boxes.iter_mut().enumerate().take(last + 1).skip(first) {
@@ -168,7 +164,7 @@ impl Builder {
                     } else {
                         plane(b + 1)
                     };
-                    *bin_box = bin_box.union(&piece(ctx, it, axis, lo, hi));
+                    *bin_box = bin_box.union(&Bounds::from_aabb(&piece(ctx, it, axis, lo, hi)));
                 }
             }
             if let Some((cost, b)) = cheapest_plane(&boxes, &entries, &exits)
@@ -185,10 +181,10 @@ impl Builder {
 fn overlap(items: &[Item], axis: usize, position: f32) -> f32 {
     let (mut left, mut right) = (Aabb::EMPTY, Aabb::EMPTY);
     for it in items {
-        if it.centre[axis] < position {
-            left = left.union(&it.bounds);
+        if it.centre()[axis] < position {
+            left = left.union(&it.aabb());
         } else {
-            right = right.union(&it.bounds);
+            right = right.union(&it.aabb());
         }
     }
     let both = Aabb::new(left.min.max(right.min), left.max.min(right.max));
@@ -209,9 +205,9 @@ fn chop(
 ) -> (Vec<Item>, Vec<Item>) {
     let (mut left, mut right) = (Vec::new(), Vec::new());
     for it in items {
-        if it.bounds.max[axis] <= position {
+        if it.hi[axis] <= position {
             left.push(*it);
-        } else if it.bounds.min[axis] >= position {
+        } else if it.lo[axis] >= position {
             right.push(*it);
         } else {
             for (side, lo, hi) in [
@@ -220,11 +216,7 @@ fn chop(
             ] {
                 let b = piece(ctx, it, axis, lo, hi);
                 if !b.is_empty() {
-                    side.push(Item {
-                        slot: it.slot,
-                        bounds: b,
-                        centre: b.center(),
-                    });
+                    side.push(Item::new(it.slot(), &b));
                 }
             }
         }
@@ -238,10 +230,11 @@ fn chop(
 /// primitives, the reference's box cut to the slab widened by the margin. Empty when the
 /// part is.
 fn piece(ctx: &SpatialContext, it: &Item, axis: usize, lo: f32, hi: f32) -> Aabb {
-    let cut = match ctx.tris.get(it.slot as usize) {
+    let own = it.aabb();
+    let cut = match ctx.tris.get(it.slot() as usize) {
         Some(t) => slab_box(t, axis, lo, hi),
         None => {
-            let mut b = it.bounds;
+            let mut b = own;
             b.min[axis] = b.min[axis].max(lo);
             b.max[axis] = b.max[axis].min(hi);
             b
@@ -251,7 +244,7 @@ fn piece(ctx: &SpatialContext, it: &Item, axis: usize, lo: f32, hi: f32) -> Aabb
         return Aabb::EMPTY;
     }
     let cut = cut.expand(ctx.margin);
-    let b = Aabb::new(cut.min.max(it.bounds.min), cut.max.min(it.bounds.max));
+    let b = Aabb::new(cut.min.max(own.min), cut.max.min(own.max));
     if b.is_empty() { Aabb::EMPTY } else { b }
 }
 
