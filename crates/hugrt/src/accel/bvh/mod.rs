@@ -657,16 +657,13 @@ impl Flat {
                     ],
                     children: [NO_CHILD; WIDTH],
                 });
-                let boxes: Vec<Aabb> = kids.iter().map(|k| *k.bounds()).collect();
-                let refs: Vec<u32> = kids
-                    .into_iter()
-                    .map(|kid| self.emit(store, kid, items, depth + 1))
-                    .collect();
-                let node = &mut self.nodes[index];
-                for (lane, (b, r)) in boxes.iter().zip(refs).enumerate() {
+                for (lane, kid) in kids.into_iter().enumerate() {
+                    let b = *kid.bounds();
+                    let r = self.emit(store, kid, items, depth + 1);
                     if r == NO_CHILD {
                         continue;
                     }
+                    let node = &mut self.nodes[index];
                     for a in 0..3 {
                         node.bounds[a][lane] = b.min[a];
                         node.bounds[3 + a][lane] = b.max[a];
