@@ -49,6 +49,14 @@ fn empty_and_single_primitive_scenes() {
     }
 }
 
+/// Over 4,096 triangles: the bvh flattens its larger subtrees side by side, each into its own
+/// part of the lists (the property tests' scenes are too small for that).
+#[test]
+fn a_scene_large_enough_to_flatten_in_parallel() {
+    let s = triangle_soup(11, 12_000);
+    check_all(&s, 13, 2_000);
+}
+
 #[test]
 fn degenerate_rays_give_no_hit_and_no_hang() {
     use hugrt::accel::{AnyAccel, NoCounters};

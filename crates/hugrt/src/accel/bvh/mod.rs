@@ -72,6 +72,21 @@ struct Node {
     children: [u32; WIDTH],
 }
 
+impl Node {
+    /// No children: every box empty, so no ray reaches a slot.
+    const EMPTY: Node = Node {
+        bounds: [
+            [f32::INFINITY; WIDTH],
+            [f32::INFINITY; WIDTH],
+            [f32::INFINITY; WIDTH],
+            [f32::NEG_INFINITY; WIDTH],
+            [f32::NEG_INFINITY; WIDTH],
+            [f32::NEG_INFINITY; WIDTH],
+        ],
+        children: [NO_CHILD; WIDTH],
+    };
+}
+
 /// The nearest hit so far: its parameter and primitive index (`u32::MAX` while none). Ties in
 /// `t` go to the lower index, as [`super::Hit::improves`] has it, whatever the order of tests.
 struct Best {
@@ -135,13 +150,23 @@ enum BuildNode {
     Inner {
         bounds: Aabb,
         children: Box<[BuildNode; 2]>,
+        /// What its flattening takes: so that subtrees can be flattened side by side, each
+        /// into its own part of lists made at their final size.
+        size: Size,
     },
+}
+
+/// Nodes of four and blocks of a flattened subtree.
+#[derive(Clone, Copy, Default)]
+struct Size {
+    nodes: usize,
+    blocks: usize,
 }
 
 impl BuildNode {
     /// A leaf of `items`, the `first`-th and on of the whole list, which it sorts by store
     /// entry: triangles first (other kinds go in the last lanes), each kind in space order.
-    /// Sorted here, in the parallel build, rather than in the sequential [`Flat::emit`].
+    /// Sorted here, where the work is shared between threads, rather than in [`flatten`].
     fn leaf(items: &mut [Item], bounds: Aabb, first: usize) -> Self {
         items.sort_unstable_by_key(Item::slot);
         BuildNode::Leaf {
@@ -151,15 +176,47 @@ impl BuildNode {
         }
     }
 
-    /// Inner nodes and blocks of the subtree: bounds on what [`Flat::emit`] makes of it, to
-    /// reserve (the blocks' list grew by copies and page faults, a fifth of the flattening).
-    fn census(&self) -> (usize, usize) {
+    /// An inner node over `left` and `right`.
+    fn inner(bounds: Aabb, left: BuildNode, right: BuildNode) -> Self {
+        let children = Box::new([left, right]);
+        let (kids, n) = four(&children);
+        let size = kids[..n].iter().fold(
+            Size {
+                nodes: 1,
+                blocks: 0,
+            },
+            |a, k| {
+                let s = k.size();
+                Size {
+                    nodes: a.nodes + s.nodes,
+                    blocks: a.blocks + s.blocks,
+                }
+            },
+        );
+        BuildNode::Inner {
+            bounds,
+            children,
+            size,
+        }
+    }
+
+    /// Frees the subtree, large subtrees side by side (one small allocation a node).
+    fn drop_in_parallel(self) {
+        if let BuildNode::Inner { children, size, .. } = self
+            && size.blocks > PARALLEL_FLATTEN
+        {
+            let [l, r] = *children;
+            rayon::join(|| l.drop_in_parallel(), || r.drop_in_parallel());
+        }
+    }
+
+    fn size(&self) -> Size {
         match self {
-            BuildNode::Leaf { count, .. } => (0, count.div_ceil(LANES)),
-            BuildNode::Inner { children, .. } => {
-                let (a, b) = (children[0].census(), children[1].census());
-                (1 + a.0 + b.0, a.1 + b.1)
-            }
+            BuildNode::Leaf { count, .. } => Size {
+                nodes: 0,
+                blocks: count.div_ceil(LANES),
+            },
+            BuildNode::Inner { size, .. } => *size,
         }
     }
 
@@ -168,6 +225,35 @@ impl BuildNode {
             BuildNode::Leaf { bounds, .. } | BuildNode::Inner { bounds, .. } => bounds,
         }
     }
+}
+
+/// The children of a node of four made from a binary node: its two children, then again and
+/// again the inner one of largest area replaced by its two, until there are four or only
+/// leaves. Returns them and their number.
+fn four(children: &[BuildNode; 2]) -> ([&BuildNode; WIDTH], usize) {
+    let mut kids = [&children[0]; WIDTH];
+    kids[1] = &children[1];
+    let mut n = 2;
+    while n < WIDTH {
+        let mut open = None;
+        let mut widest = f32::NEG_INFINITY;
+        for (i, k) in kids[..n].iter().enumerate() {
+            if let BuildNode::Inner { bounds, .. } = k {
+                let area = bounds.surface_area();
+                if open.is_none() || area >= widest {
+                    (open, widest) = (Some(i), area);
+                }
+            }
+        }
+        let Some(i) = open else { break };
+        let BuildNode::Inner { children, .. } = kids[i] else {
+            unreachable!("only inner nodes are opened")
+        };
+        kids[i] = &children[0];
+        kids[n] = &children[1];
+        n += 1;
+    }
+    (kids, n)
 }
 
 /// One primitive during the build: its box, with its store entry in the spare lane (32
@@ -321,10 +407,7 @@ impl Builder {
                 self.build(right, first + mid, depth + 1, right_ext),
             )
         };
-        BuildNode::Inner {
-            bounds,
-            children: Box::new([l, r]),
-        }
+        BuildNode::inner(bounds, l, r)
     }
 
     /// The binned SAH's best plane: its cost (in primitive tests, traversal step included),
@@ -579,99 +662,137 @@ fn median(items: &mut [Item], centres: &Aabb) -> usize {
     mid
 }
 
-/// The tree flattened into nodes of four and blocks.
+/// Subtrees of more blocks than this are flattened in parallel.
+const PARALLEL_FLATTEN: usize = 1 << 10;
+
+/// What flattening a subtree counted: lanes filled and the leaves' statistics.
 #[derive(Default)]
-struct Flat {
-    nodes: Vec<Node>,
-    blocks: Vec<Block>,
-    /// Lanes filled.
+struct Flattened {
     filled: usize,
     stats: TreeStats,
 }
 
-impl Flat {
-    /// Flattens the binary tree into nodes of four, depth first (node, then each child's
-    /// subtree in turn); returns the child reference of `node`. (Flattening large subtrees
-    /// apart in parallel and appending them measured slower: the copies and the page faults
-    /// of the growing lists cost more than the work shared.)
-    fn emit(&mut self, store: &PrimStore, node: BuildNode, items: &[Item], depth: usize) -> u32 {
-        match node {
-            BuildNode::Leaf { count: 0, .. } => NO_CHILD,
-            BuildNode::Leaf {
-                bounds,
-                start,
-                count,
-            } => {
-                let first = self.blocks.len();
-                // In store order ([`BuildNode::leaf`]).
-                for lanes in items[start..start + count].chunks(LANES) {
-                    let mut block = Block::EMPTY;
-                    for (l, it) in lanes.iter().enumerate() {
-                        let s = it.slot();
-                        match store.triangle(s) {
-                            Some(t) => block.set(l, t, store.id(s)),
-                            None => block.ids[l] = OTHER_LANE | s,
-                        }
+impl Flattened {
+    fn add(mut self, o: Flattened) -> Flattened {
+        self.filled += o.filled;
+        self.stats.leaves += o.stats.leaves;
+        self.stats.max_depth = self.stats.max_depth.max(o.stats.max_depth);
+        self.stats.depth_sum += o.stats.depth_sum;
+        self.stats.leaf_volume += o.stats.leaf_volume;
+        self
+    }
+}
+
+/// A node's part of the lists: its own nodes and blocks, and where they start in the whole.
+struct Part<'a> {
+    nodes: &'a mut [Node],
+    node_base: usize,
+    blocks: &'a mut [Block],
+    block_base: usize,
+}
+
+/// Flattens `node` into `part` (of exactly its [`BuildNode::size`]): nodes of four, depth first
+/// (a node, then each child's subtree in turn), the leaves' blocks in the same order; returns
+/// its child reference. Children whose subtrees are large are flattened side by side, each in
+/// its own part: the layout is the one flattening them in turn would give.
+fn flatten(
+    store: &PrimStore,
+    node: &BuildNode,
+    items: &[Item],
+    depth: usize,
+    part: Part,
+) -> (u32, Flattened) {
+    match node {
+        BuildNode::Leaf { count: 0, .. } => (NO_CHILD, Flattened::default()),
+        &BuildNode::Leaf {
+            bounds,
+            start,
+            count,
+        } => {
+            // In store order ([`BuildNode::leaf`]).
+            for (block, lanes) in part
+                .blocks
+                .iter_mut()
+                .zip(items[start..start + count].chunks(LANES))
+            {
+                for (l, it) in lanes.iter().enumerate() {
+                    let s = it.slot();
+                    match store.triangle(s) {
+                        Some(t) => block.set(l, t, store.id(s)),
+                        None => block.ids[l] = OTHER_LANE | s,
                     }
-                    self.blocks.push(block);
                 }
-                self.filled += count;
-                self.stats.leaves += 1;
-                self.stats.max_depth = self.stats.max_depth.max(depth);
-                self.stats.depth_sum += depth;
-                if !bounds.is_empty() {
-                    self.stats.leaf_volume += bounds.volume() as f64;
-                }
-                let blocks = count.div_ceil(LANES) as u32;
-                LEAF | ((blocks - 1) << LEAF_START_BITS) | first as u32
             }
-            BuildNode::Inner { children, .. } => {
-                // Open the child of largest area until there are four.
-                let mut kids: Vec<BuildNode> = Vec::from(*children);
-                while kids.len() < WIDTH {
-                    let open = kids
-                        .iter()
-                        .enumerate()
-                        .filter(|(_, k)| matches!(k, BuildNode::Inner { .. }))
-                        .max_by(|a, b| {
-                            a.1.bounds()
-                                .surface_area()
-                                .total_cmp(&b.1.bounds().surface_area())
-                        })
-                        .map(|(i, _)| i);
-                    let Some(i) = open else { break };
-                    let BuildNode::Inner { children, .. } = kids.swap_remove(i) else {
-                        unreachable!("filtered")
-                    };
-                    kids.extend(*children);
-                }
-                let index = self.nodes.len();
-                self.nodes.push(Node {
-                    bounds: [
-                        [f32::INFINITY; WIDTH],
-                        [f32::INFINITY; WIDTH],
-                        [f32::INFINITY; WIDTH],
-                        [f32::NEG_INFINITY; WIDTH],
-                        [f32::NEG_INFINITY; WIDTH],
-                        [f32::NEG_INFINITY; WIDTH],
-                    ],
-                    children: [NO_CHILD; WIDTH],
+            let stats = TreeStats {
+                leaves: 1,
+                max_depth: depth,
+                depth_sum: depth,
+                leaf_volume: if bounds.is_empty() {
+                    0.0
+                } else {
+                    bounds.volume() as f64
+                },
+            };
+            let blocks = count.div_ceil(LANES) as u32;
+            let r = LEAF | ((blocks - 1) << LEAF_START_BITS) | part.block_base as u32;
+            (
+                r,
+                Flattened {
+                    filled: count,
+                    stats,
+                },
+            )
+        }
+        BuildNode::Inner { children, size, .. } => {
+            let (kids, n) = four(children);
+            let (own, mut nodes) = part.nodes.split_first_mut().expect("sized for its node");
+            let mut blocks = part.blocks;
+            let (mut node_base, mut block_base) = (part.node_base + 1, part.block_base);
+            let mut parts: [Option<(&BuildNode, Part)>; WIDTH] = Default::default();
+            for (slot, k) in parts.iter_mut().zip(&kids[..n]) {
+                let s = k.size();
+                let (kn, rest) = std::mem::take(&mut nodes).split_at_mut(s.nodes);
+                let (kb, rest_b) = std::mem::take(&mut blocks).split_at_mut(s.blocks);
+                (nodes, blocks) = (rest, rest_b);
+                *slot = Some((
+                    *k,
+                    Part {
+                        nodes: kn,
+                        node_base,
+                        blocks: kb,
+                        block_base,
+                    },
+                ));
+                node_base += s.nodes;
+                block_base += s.blocks;
+            }
+            let mut refs: [(u32, Flattened); WIDTH] = Default::default();
+            let parts = parts.into_iter().flatten();
+            if size.blocks > PARALLEL_FLATTEN {
+                rayon::scope(|scope| {
+                    for (r, (k, p)) in refs.iter_mut().zip(parts) {
+                        scope.spawn(move |_| *r = flatten(store, k, items, depth + 1, p));
+                    }
                 });
-                for (lane, kid) in kids.into_iter().enumerate() {
-                    let b = *kid.bounds();
-                    let r = self.emit(store, kid, items, depth + 1);
-                    if r == NO_CHILD {
-                        continue;
-                    }
-                    let node = &mut self.nodes[index];
-                    for a in 0..3 {
-                        node.bounds[a][lane] = b.min[a];
-                        node.bounds[3 + a][lane] = b.max[a];
-                    }
-                    node.children[lane] = r;
+            } else {
+                for (r, (k, p)) in refs.iter_mut().zip(parts) {
+                    *r = flatten(store, k, items, depth + 1, p);
                 }
-                index as u32
             }
+            let mut counted = Flattened::default();
+            for (lane, (k, (r, f))) in kids[..n].iter().zip(refs).enumerate() {
+                counted = counted.add(f);
+                if r == NO_CHILD {
+                    continue;
+                }
+                let b = k.bounds();
+                for a in 0..3 {
+                    own.bounds[a][lane] = b.min[a];
+                    own.bounds[3 + a][lane] = b.max[a];
+                }
+                own.children[lane] = r;
+            }
+            (part.node_base as u32, counted)
         }
     }
 }
@@ -810,34 +931,35 @@ impl Accel for Bvh {
         };
         // The root is always a node: a lone leaf gets a node of one child.
         let root = match root {
-            leaf @ BuildNode::Leaf { .. } => BuildNode::Inner {
-                bounds: *leaf.bounds(),
-                children: Box::new([
-                    leaf,
-                    BuildNode::Leaf {
-                        bounds: Aabb::EMPTY,
-                        start: 0,
-                        count: 0,
-                    },
-                ]),
-            },
+            leaf @ BuildNode::Leaf { .. } => BuildNode::inner(
+                *leaf.bounds(),
+                leaf,
+                BuildNode::Leaf {
+                    bounds: Aabb::EMPTY,
+                    start: 0,
+                    count: 0,
+                },
+            ),
             inner => inner,
         };
-        let (inner, blocks) = root.census();
-        let mut flat = Flat {
-            nodes: Vec::with_capacity(inner),
-            blocks: Vec::with_capacity(blocks),
-            ..Flat::default()
+        let size = root.size();
+        // Made in parallel: the pages are first touched on both threads.
+        let mut nodes: Vec<Node> = (0..size.nodes)
+            .into_par_iter()
+            .map(|_| Node::EMPTY)
+            .collect();
+        let mut blocks: Vec<Block> = (0..size.blocks)
+            .into_par_iter()
+            .map(|_| Block::EMPTY)
+            .collect();
+        let part = Part {
+            nodes: &mut nodes,
+            node_base: 0,
+            blocks: &mut blocks,
+            block_base: 0,
         };
-        flat.emit(&store, root, &items, 0);
-        let Flat {
-            mut nodes,
-            mut blocks,
-            filled,
-            stats,
-        } = flat;
-        nodes.shrink_to_fit();
-        blocks.shrink_to_fit();
+        let (_, Flattened { filled, stats }) = flatten(&store, &root, &items, 0, part);
+        root.drop_in_parallel();
         let mut bvh = Bvh {
             nodes,
             blocks,

@@ -113,10 +113,7 @@ impl Builder {
         };
         shift(&mut r, l_items.len());
         l_items.extend(r_items);
-        let node = BuildNode::Inner {
-            bounds,
-            children: Box::new([l, r]),
-        };
+        let node = BuildNode::inner(bounds, l, r);
         (node, l_items)
     }
 
