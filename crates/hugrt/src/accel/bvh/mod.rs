@@ -3,8 +3,10 @@
 //!
 //! * Build: a binary tree by binned surface-area heuristic (Wald, "On fast construction of
 //!   SAH-based bounding volume hierarchies", 2007) over the primitives' box centres, `bins`
-//!   bins per axis, subtrees built in parallel; then collapsed to four children per node by
-//!   opening, again and again, the child of largest surface area. A leaf's cost is its number
+//!   bins per axis, subtrees built in parallel, on 32-byte items and four-lane boxes (as
+//!   Embree's `PrimRef`); then collapsed to four children per node by opening, again and
+//!   again, the child of largest surface area, large subtrees flattened side by side into
+//!   lists made at their final size. A leaf's cost is its number
 //!   of blocks of four, full or not (as Embree counts its four-triangle leaves), so leaves
 //!   fill their blocks where the areas allow. With `spatial` above 0, nodes may instead cut
 //!   space and share a straddling triangle between both sides (SBVH, [`spatial`]).
