@@ -142,6 +142,16 @@ struct TreeStats {
     leaf_volume: f64,
 }
 
+impl TreeStats {
+    /// Adds the statistics of other leaves.
+    fn add(&mut self, o: &TreeStats) {
+        self.leaves += o.leaves;
+        self.max_depth = self.max_depth.max(o.max_depth);
+        self.depth_sum += o.depth_sum;
+        self.leaf_volume += o.leaf_volume;
+    }
+}
+
 /// The binary tree of the build.
 enum BuildNode {
     Leaf {
@@ -681,10 +691,7 @@ struct Flattened {
 impl Flattened {
     fn add(mut self, o: Flattened) -> Flattened {
         self.filled += o.filled;
-        self.stats.leaves += o.stats.leaves;
-        self.stats.max_depth = self.stats.max_depth.max(o.stats.max_depth);
-        self.stats.depth_sum += o.stats.depth_sum;
-        self.stats.leaf_volume += o.stats.leaf_volume;
+        self.stats.add(&o.stats);
         self
     }
 }

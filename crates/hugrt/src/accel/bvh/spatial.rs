@@ -176,15 +176,18 @@ impl Builder {
 
 /// Surface area of the overlap of the two boxes an object split at `position` makes.
 fn overlap(items: &[Item], axis: usize, position: f32) -> f32 {
-    let (mut left, mut right) = (Aabb::EMPTY, Aabb::EMPTY);
+    let (mut left, mut right) = (Bounds::EMPTY, Bounds::EMPTY);
     for it in items {
         if it.centre()[axis] < position {
-            left = left.union(&it.aabb());
+            left = left.union(&it.bounds());
         } else {
-            right = right.union(&it.aabb());
+            right = right.union(&it.bounds());
         }
     }
-    let both = Aabb::new(left.min.max(right.min), left.max.min(right.max));
+    let both = Bounds {
+        lo: left.lo.max(right.lo),
+        hi: left.hi.min(right.hi),
+    };
     if both.is_empty() {
         0.0
     } else {
