@@ -23,6 +23,8 @@ const SPECS: &[&str] = &[
     "hug:min_cluster=1,loose=1e30",
     "hug:min_cluster=1,loose=1e30,cluster=cluster3d,alpha=0.01,filter=levels",
     "hug:cluster=graph,alpha=0,insert=fig9,min_cluster=1,filter=levels",
+    "hug:preset=eg95",
+    "hug:preset=scg97",
 ];
 
 /// Grids cut where crowded (`accel::hierarchy::Subdivision`): at most `2·(64·n + 4096)`
@@ -31,8 +33,10 @@ const CUT_GRIDS: &[(&str, f64)] = &[
     ("rgrid", 3.0),
     ("rgrid:maxp=1,depth=16", 16.0),
     ("rgrid:maxp=2,hetero=false,density=8,depth=5", 5.0),
-    ("octree", 10.0),
+    ("octree", 16.0),
     ("octree:maxp=1,depth=16", 16.0),
+    ("octree:maxp=1,depth=16,guard=true", 16.0),
+    ("rgrid:preset=eg95", 5.0),
 ];
 
 /// Adaptive grids: clusters' grids within their own budgets (`64·k + 4096` references for `k`
@@ -48,6 +52,8 @@ const TREES: &[&str] = &["bvh", "bvh:leaf=1", "bvh:leaf=16,bins=2,traversal=0"];
 const SPATIAL_TREES: &[(&str, f64)] = &[("bvh:spatial=4,leaf=1", 4.0), ("bvh:spatial=0.3", 0.3)];
 const KD_TREES: &[&str] = &[
     "kdtree",
+    "kdtree:preset=havran",
+    "kdtree:preset=havran,traversal=0,step=0",
     "kdtree:split=mid,leaf=1,depth=64",
     "kdtree:traversal=0",
 ];
@@ -194,11 +200,12 @@ fn thousands_of_coplanar_overlapping_triangles() {
 }
 
 #[test]
-fn more_than_maxp_coplanar_triangles_through_one_point_stop_the_cutting() {
-    // EG95 §1.2.2: N > MAXP coplanar polygons with a common point would be cut forever; every
-    // cell round the point holds all of them, and a cell holding all of its grid's objects is
-    // not cut again. Without that rule the octree is cut until the reference budget stops
-    // it (3 levels, 21 times the references).
+fn more_than_maxp_coplanar_triangles_through_one_point_grow_up_to_the_budget() {
+    // EG95 §1.2.2: N > MAXP coplanar polygons with a common point would be cut forever. As
+    // the papers' structures, the octree cuts every cell round the point down to its depth
+    // limit or until the reference budget stops it: memory grows explosively, within the
+    // bound. hugrt's guard (a cell holding all of its grid's objects is not cut again) stops
+    // it at the first level.
     let mut r = rng(5);
     let shapes: Vec<Shape> = (0..200)
         .map(|_| {
@@ -208,12 +215,20 @@ fn more_than_maxp_coplanar_triangles_through_one_point_stop_the_cutting() {
         })
         .collect();
     let s = scene_of(shapes);
-    let a = AnyAccel::build(&s, "octree:depth=16").unwrap();
-    let (levels, refs) = (stat(&a, "depth"), stat(&a, "references"));
+    let guarded = AnyAccel::build(&s, "octree:depth=16,guard=true").unwrap();
+    let (levels, refs) = (stat(&guarded, "depth"), stat(&guarded, "references"));
     assert!(
         levels == 1.0 && refs <= 8.0 * 200.0,
-        "{levels} levels, {refs} references"
+        "guarded: {levels} levels, {refs} references"
     );
+    for spec in ["octree:depth=16", "rgrid:preset=eg95"] {
+        let a = AnyAccel::build(&s, spec).unwrap();
+        let (levels, refs) = (stat(&a, "depth"), stat(&a, "references"));
+        assert!(
+            levels >= 3.0 && refs > 8.0 * 200.0 && refs <= 2.0 * (64.0 * 200.0 + 4096.0),
+            "{spec}: {levels} levels, {refs} references"
+        );
+    }
     check(&s, 300);
 }
 

@@ -36,7 +36,7 @@
 //! mean) is the BVH over many small clusters: 14–45 box tests per ray.
 
 use super::grid::{PRUNE_KEY, SIMD_KEY, store_with_boxes};
-use super::hierarchy::{GridHierarchy, GridPlan, Prune, Resolution, Subdivision};
+use super::hierarchy::{GridHierarchy, GridPlan, LevelView, Prune, Resolution, Subdivision};
 use super::store::{Nearest, finite};
 use super::{
     Accel, CellCensus, Counters, Hit, Mailbox, Primitives, Spec, SpecError, StructureStats,
@@ -234,7 +234,9 @@ impl Accel for AdaptiveGrid {
             children: Vec::new(),
             frame: None,
             depth: 0,
+            level: 0,
             scene_box: false,
+            shift: true,
         };
         let mut orphans = Vec::new();
         let mut plans = Vec::new();
@@ -253,6 +255,8 @@ impl Accel for AdaptiveGrid {
         let sub = Subdivision {
             maxp: settings.maxp,
             max_depth: settings.depth,
+            // The adaptive grid's sub-voxel grids keep hugrt's guard (`Subdivision`).
+            guard: true,
             cells: per_object,
         };
         let simd = spec.bool("simd", true)?;
@@ -333,7 +337,7 @@ impl Accel for AdaptiveGrid {
     }
 
     fn stats(&self) -> StructureStats {
-        let levels = self.grids.level_stats();
+        let levels = self.grids.level_stats(LevelView::Level);
         let a = &self.settings;
         let mut s = StructureStats::default();
         s.push("f", a.f as f64);

@@ -10,7 +10,7 @@
 //! * Traversal: the 3D-DDA of Amanatides and Woo, mailboxing, and a hit ends the walk only
 //!   once it lies inside the current cell (see [`GridHierarchy::walk`]).
 
-use super::hierarchy::{GridHierarchy, GridPlan, Prune, Resolution};
+use super::hierarchy::{GridHierarchy, GridPlan, LevelView, Prune, Resolution};
 use super::{
     Accel, CellCensus, Counters, Hit, PrimStore, Primitives, Spec, SpecError, StructureStats,
 };
@@ -35,6 +35,12 @@ pub struct Grid {
 pub(crate) const PRUNE_KEY: (&str, &str) = (
     "prune",
     "true: reference a cell only if the primitive itself touches it; large: only for objects whose box spans 16 cells or more (default false)",
+);
+
+/// The `shift` key of the structures whose grids are planned over their items' box.
+pub(crate) const SHIFT_KEY: (&str, &str) = (
+    "shift",
+    "true: cell planes moved off the box's round fractions, one more cell along axes of 4 or more (hugrt's, not the papers'; default true)",
 );
 
 /// The `simd` key of every grid structure.
@@ -76,6 +82,7 @@ impl Accel for Grid {
             "cells per primitive, 0.001..1000 (default 2; RTNews used 1 and 20)",
         ),
         PRUNE_KEY,
+        SHIFT_KEY,
         SIMD_KEY,
     ];
 
@@ -91,7 +98,9 @@ impl Accel for Grid {
             resolution: Resolution::Cubical(density as f64 * n as f64),
             frame: None,
             depth: 0,
+            level: 0,
             scene_box: true,
+            shift: spec.bool("shift", true)?,
         };
         let simd = spec.bool("simd", true)?;
         let grids = GridHierarchy::build(prims, store, &[plan], prune, None, simd)?;
@@ -117,7 +126,7 @@ impl Accel for Grid {
     }
 
     fn stats(&self) -> StructureStats {
-        let levels = self.grids.level_stats();
+        let levels = self.grids.level_stats(LevelView::Level);
         let root = &levels[0];
         let res = self.grids.resolution(0);
         let mut s = StructureStats::default();

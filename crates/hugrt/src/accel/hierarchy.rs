@@ -236,14 +236,21 @@ impl Resolution {
 /// kitchen, stadium and bunny, paired.)
 ///
 /// Termination (EG95 §1.2.2: `maxp` coplanar triangles sharing a point would recurse
-/// forever): no grid deeper than `max_depth`; a cell holding every object of its grid is not
-/// cut again (it would only repeat its grid); and the references and cells of all grids stay
-/// within `2·(64·n + 4096)` and the root's cells plus `64·n + 4096`: sub-grids are made level
-/// by level and, within a level, in cell order until the next would overflow either budget.
+/// forever): as in Jevans and Wyvill and EG95, no grid deeper than `max_depth`; and the
+/// references and cells of all grids stay within `2·(64·n + 4096)` and the root's cells plus
+/// `64·n + 4096`: sub-grids are made level by level and, within a level, in cell order until
+/// the next would overflow either budget. Coplanar stacks therefore grow as the papers say
+/// they do, explosively, up to that bound. hugrt's own guard (`guard`, not the papers'), off
+/// unless asked for: a cell holding every object of its grid is not cut again, since its
+/// grid would only repeat the one above; it stops the coplanar case at once, but it also
+/// leaves uncut a crowded cell that happens to hold its grid's every object (a cluster
+/// beside one large triangle that crosses its cell).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Subdivision {
     pub maxp: usize,
     pub max_depth: u32,
+    /// hugrt's guard: a cell holding every object of its grid is not cut again.
+    pub guard: bool,
     /// Cells of a cut cell's grid, per object it holds ([`Resolution::for_objects`]).
     pub cells: Resolution,
 }
@@ -256,10 +263,16 @@ pub(crate) struct GridPlan {
     pub children: Vec<u32>,
     pub resolution: Resolution,
     pub frame: Option<Frame>,
-    /// Level in the hierarchy (0 = the root), for statistics and counters.
+    /// Nesting depth in the hierarchy (0 = the root).
     pub depth: u32,
+    /// The level the statistics and counters report it under: the filter level of a HUG's
+    /// grid (0 = the world's, the largest objects), the depth for the other structures.
+    pub level: u32,
     /// Whether the grid's box is the whole scene's (a root) rather than its items'.
     pub scene_box: bool,
+    /// Whether its cell planes are moved off the box's round fractions
+    /// ([`GridHeader::shift_planes`]: one more cell along axes of 4 or more).
+    pub shift: bool,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -274,6 +287,8 @@ struct GridHeader {
     first_cell: u32,
     frame: u32,
     depth: u32,
+    /// [`GridPlan::level`].
+    level: u32,
     objects: u32,
 }
 
@@ -486,6 +501,8 @@ pub(crate) struct GridHierarchy {
     /// Whether cells test their triangles eight at a time ([`simd`]): the processor has AVX2,
     /// the store's offsets fit the gathers, and the spec did not turn it off.
     simd: bool,
+    /// Crowded cells [`Subdivision`] left uncut because the budgets would overflow.
+    uncut: usize,
 }
 
 /// How the items of a grid become `(cell, reference)` pairs.
@@ -618,6 +635,7 @@ impl GridHierarchy {
                     first_cell: 0,
                     frame,
                     depth: p.depth,
+                    level: p.level,
                     objects: p.objects.len() as u32,
                 }
             })
@@ -643,7 +661,9 @@ impl GridHierarchy {
             (h.min, h.max) = (b.min, b.max);
             h.set_resolution(plans[g].resolution.cells_per_axis(b.extent()));
             Self::fit_budget(h, &it);
-            h.shift_planes();
+            if plans[g].shift {
+                h.shift_planes();
+            }
             items[g] = Some(it);
         }
         let items: Vec<Items<P>> = items.into_iter().flatten().collect();
@@ -697,8 +717,16 @@ impl GridHierarchy {
         // Pass 2: a stable sort by cell keeps each cell's objects in store order, then its
         // grids; the cell index and the references come straight from the sorted pairs.
         radix_sort_high32(&mut pairs);
+        let mut uncut = 0;
         if let Some(sub) = subdivision {
-            pairs = Self::subdivide(&binner, &mut grids, pairs, &mut total_cells, &sub);
+            pairs = Self::subdivide(
+                &binner,
+                &mut grids,
+                pairs,
+                &mut total_cells,
+                &sub,
+                &mut uncut,
+            );
         }
         let cells = CellIndex::from_sorted(&pairs, total_cells as usize);
         let refs: Vec<u32> = pairs.par_iter().map(|&p| p as u32).collect();
@@ -711,6 +739,7 @@ impl GridHierarchy {
             cells,
             refs,
             simd,
+            uncut,
         })
     }
 
@@ -742,6 +771,7 @@ impl GridHierarchy {
         mut pairs: Vec<u64>,
         total_cells: &mut u64,
         sub: &Subdivision,
+        uncut: &mut usize,
     ) -> Vec<u64> {
         let n = binner.store.len() as u64;
         let ref_budget = 2 * (MAX_REFS_PER_ITEM * n + MIN_REF_BUDGET);
@@ -769,7 +799,7 @@ impl GridHierarchy {
                 if objects > sub.maxp
                     && h.depth < sub.max_depth
                     && h.frame == NO_FRAME
-                    && objects < h.objects as usize
+                    && (!sub.guard || objects < h.objects as usize)
                 {
                     runs.push((k, e, g, objects));
                 }
@@ -795,6 +825,7 @@ impl GridHierarchy {
                         first_cell: 0,
                         frame: NO_FRAME,
                         depth: parent.depth + 1,
+                        level: parent.level + 1,
                         objects: objects.len() as u32,
                     };
                     h.set_resolution(
@@ -824,6 +855,7 @@ impl GridHierarchy {
                 let cells = h.cells() as u64;
                 let after = refs + out.len() as u64 + 1 - objects as u64;
                 if after > ref_budget || *total_cells + cells > cell_budget {
+                    *uncut += 1;
                     continue;
                 }
                 refs = after;
@@ -924,8 +956,8 @@ impl GridHierarchy {
         }
     }
 
-    /// Walks grid `g` along `ray` from `tmin`, improving `near`; `depth` is the grid's level
-    /// for the counters. Returns `true` when `ANY_HIT` found a hit and the whole query may
+    /// Walks grid `g` along `ray` from `tmin`, improving `near`; the grid's
+    /// [`GridPlan::level`] is where the counters count. Returns `true` when `ANY_HIT` found a hit and the whole query may
     /// stop. The ray must be traceable ([`crate::geometry::Ray::is_traceable`]).
     #[allow(clippy::too_many_arguments)]
     pub fn walk<P: Primitives, C: Counters, const ANY_HIT: bool>(
@@ -939,7 +971,7 @@ impl GridHierarchy {
         counters: &mut C,
     ) -> bool {
         let h = &self.grids[g as usize];
-        let depth = h.depth as usize;
+        let depth = h.level as usize;
         counters.box_test(depth);
         let (o, d, inv) = if h.frame == NO_FRAME {
             (ray.ray.origin, ray.ray.dir, ray.inv_dir)
@@ -1128,13 +1160,9 @@ impl GridHierarchy {
         Aabb::new(self.grids[g].min, self.grids[g].max)
     }
 
-    /// Levels of the hierarchy: one more than its deepest grid's.
-    pub fn depth(&self) -> usize {
-        self.grids
-            .iter()
-            .map(|h| h.depth as usize + 1)
-            .max()
-            .unwrap_or(0)
+    /// Crowded cells left uncut by the reference and cell budgets ([`Subdivision`]).
+    pub fn uncut_by_budget(&self) -> usize {
+        self.uncut
     }
 
     pub fn grid_count(&self) -> usize {
@@ -1167,9 +1195,21 @@ impl GridHierarchy {
         self.grid_memory_bytes() + self.store.memory_bytes()
     }
 
-    /// The statistics of SCG97 §3 for each level of the hierarchy (level 0 = the root).
-    pub fn level_stats(&self) -> Vec<GridLevelStats> {
-        let levels = self.depth();
+    /// The statistics of SCG97 §3 for each level of the hierarchy (level 0 = the top), the
+    /// levels being the grids' [`GridPlan::level`] (a HUG's filter levels, as SCG97's tables
+    /// report them) or their nesting depths.
+    ///
+    /// An object is counted once, at the level that stores it (SCG97 §3: "the percentages of
+    /// polygons stored at that level"): a HUG stores each object in one grid; a recursive
+    /// grid's object that lies both in a cut cell and in one that was not cut is stored at
+    /// two levels, and counts at the deeper one, where it was handed down. So `%obj` sums to
+    /// 100 over the levels.
+    pub fn level_stats(&self, view: LevelView) -> Vec<GridLevelStats> {
+        let key = |h: &GridHeader| match view {
+            LevelView::Level => h.level as usize,
+            LevelView::Depth => h.depth as usize,
+        };
+        let levels = self.grids.iter().map(|h| key(h) + 1).max().unwrap_or(0);
         let mut out: Vec<GridLevelStats> = (0..levels)
             .map(|level| GridLevelStats {
                 level,
@@ -1180,11 +1220,12 @@ impl GridHierarchy {
         // number of cells holding any.
         let mut objects_per_cell = vec![Moments::default(); levels];
         let mut grids_per_cell = vec![Moments::default(); levels];
+        // The deepest level storing each store entry, plus one (0: stored nowhere).
+        let mut stored_at = vec![0u8; self.store.len()];
         for h in &self.grids {
-            let d = h.depth as usize;
+            let d = key(h);
             let l = &mut out[d];
             l.grids += 1;
-            l.objects += h.objects as usize;
             l.cells += h.cells();
             l.volume += volume(h);
             let cell_volume = volume(h) / h.cells().max(1) as f64;
@@ -1202,9 +1243,21 @@ impl GridHierarchy {
                 if refs.len() > g {
                     l.object_cells += 1;
                     l.object_cell_volume += cell_volume;
+                } else if g > 0 {
+                    l.grid_only_cells += 1;
+                }
+                for &r in &refs[..refs.len() - g] {
+                    let at = &mut stored_at[r as usize];
+                    *at = (*at).max(d.min(254) as u8 + 1);
                 }
                 objects_per_cell[d].add((refs.len() - g) as f64);
+                l.max_o_v = l.max_o_v.max(refs.len() - g);
                 grids_per_cell[d].add(g as f64);
+            }
+        }
+        for &at in &stored_at {
+            if at > 0 {
+                out[at as usize - 1].objects += 1;
             }
         }
         // The volume the top grids cover (one root, or an adaptive grid's clusters).
@@ -1237,7 +1290,12 @@ impl GridHierarchy {
             } else {
                 100.0
             };
-            l.mu_o_g = l.objects as f64 / l.grids.max(1) as f64;
+            l.mu_o_g = if l.pct_grids > 0.0 {
+                l.pct_obj / l.pct_grids
+            } else {
+                0.0
+            };
+            l.mu_o_g_raw = l.objects as f64 / l.grids.max(1) as f64;
             l.pct_o = pct(o.nonzero, l.cells.max(1));
             (l.mu_o_v, l.sigma_o_v) = o.mean_sd(false);
             (l.mu_o_v_nonempty, l.sigma_o_v_nonempty) = o.mean_sd(true);
@@ -1247,6 +1305,15 @@ impl GridHierarchy {
         }
         out
     }
+}
+
+/// Which levels [`GridHierarchy::level_stats`] groups grids by.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LevelView {
+    /// [`GridPlan::level`]: a HUG's filter levels (SCG97's tables), the depth elsewhere.
+    Level,
+    /// Nesting depth: which grids lie inside how many others.
+    Depth,
 }
 
 fn volume(h: &GridHeader) -> f64 {
@@ -1283,14 +1350,18 @@ impl Moments {
     }
 }
 
-/// The statistics of one hierarchy level (SCG97 §3; level 0 is the root here, where the paper
+/// The statistics of one hierarchy level (SCG97 §3; level 0 is the top here, where the paper
 /// numbers levels from the smallest objects up).
 ///
 /// * Resource repartition: `pct_obj`, `pct_grids`, `pct_voxels`, `pct_ptrs` are the level's
-///   shares of objects stored, grids, cells and references (to objects and to grids);
-///   `pct_vol` the summed volume of its grids over the root's (over 100% in total as soon as
-///   two levels are used; SCG97 §7.1 reads a sum far above, say 120%, as clusters too loose).
-/// * Occupancy: `mu_o_g` objects per grid; `pct_o` the share of cells holding objects;
+///   shares of objects stored (each object once, [`GridHierarchy::level_stats`]), grids,
+///   cells and references (to objects and to grids); `pct_vol` the summed volume of its grids
+///   as built (their boxes with the margin and any shifted planes) over the root's (over 100%
+///   in total as soon as two levels are used; SCG97 §7.1 reads a sum far above, say 120%, as
+///   clusters too loose).
+/// * Occupancy: `mu_o_g` as SCG97's figure tables give it, the level's share of objects over
+///   its share of grids (Fig. 14: 82.6 / 70 = 1.18), and `mu_o_g_raw` the plain mean, objects
+///   per grid; `pct_o` the share of cells holding objects;
 ///   `mu_o_v`, `sigma_o_v` objects per cell, and `mu_o_v_nonempty`, `sigma_o_v_nonempty` per
 ///   cell holding objects (the paper's μo'_v, σo'_v); the same for grids referenced per cell
 ///   (`pct_g`, `mu_g_v`, `sigma_g_v`, `mu_g_v_nonempty`, `sigma_g_v_nonempty`).
@@ -1304,6 +1375,9 @@ pub struct GridLevelStats {
     pub grid_refs: usize,
     /// Cells holding at least one object reference, and their summed volume.
     pub object_cells: usize,
+    /// Cells holding sub-grids and no object: inner cells of the hierarchy, not elementary
+    /// ones (Havran's septet counts only elementary cells).
+    pub grid_only_cells: usize,
     pub object_cell_volume: f64,
     /// Summed volume of the level's grids.
     pub volume: f64,
@@ -1315,11 +1389,14 @@ pub struct GridLevelStats {
     pub pct_ptrs: f64,
     pub pct_vol: f64,
     pub mu_o_g: f64,
+    pub mu_o_g_raw: f64,
     pub pct_o: f64,
     pub mu_o_v: f64,
     pub sigma_o_v: f64,
     pub mu_o_v_nonempty: f64,
     pub sigma_o_v_nonempty: f64,
+    /// The most objects any cell of the level references.
+    pub max_o_v: usize,
     pub pct_g: f64,
     pub mu_g_v: f64,
     pub sigma_g_v: f64,

@@ -32,13 +32,13 @@ pub use brute::Brute;
 pub use bvh::Bvh;
 pub use counters::{Counters, LevelCounts, MAX_LEVELS, NoCounters, RayCounters};
 pub use grid::Grid;
-pub use hierarchy::{GridLevelStats, cubical_resolution};
+pub use hierarchy::{GridLevelStats, LevelView, cubical_resolution};
 pub use hug::Hug;
 pub use kdtree::KdTree;
 pub use mailbox::Mailbox;
 pub use octree::Octree;
 pub use rgrid::RecursiveGrid;
-pub use spec::{Spec, SpecError};
+pub use spec::{Preset, Spec, SpecError};
 pub use store::{Nearest, PrimStore};
 
 use crate::geometry::{Aabb, Cone, PreparedRay, Ray, Sphere, Vec3};
@@ -103,13 +103,18 @@ impl Hit {
 pub struct StructureStats {
     pub entries: Vec<(String, f64)>,
     pub census: CellCensus,
+    /// SCG97 §3's statistics per level: a HUG's filter levels, the depth elsewhere.
     pub levels: Vec<GridLevelStats>,
+    /// The same by nesting depth, where that differs from `levels` (the HUG's).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub depths: Vec<GridLevelStats>,
 }
 
 /// What a structure's cells hold: the static half of Havran's septet (Havran §4.1, Table 2),
 /// from which [`crate::bench`] derives `N_C`, `R_ETNC`, `N_ADC`, `N_AOIFC` and `R_FVWV`.
-/// Cells are the elementary cells of every grid, or a tree's nodes; brute force is one cell
-/// holding everything.
+/// Cells are Havran's elementary cells: the cells of every grid that are not inner cells of
+/// the hierarchy, or a tree's leaves (Havran's `R_ETNC` is over them: his Tables 5–6 give
+/// 11–32%); brute force is one cell holding everything.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
 pub struct CellCensus {
     /// `N_C`.
@@ -124,14 +129,15 @@ pub struct CellCensus {
 }
 
 impl CellCensus {
-    /// The census of a grid hierarchy from its levels' statistics. A cell counts as full when
-    /// it holds an object reference; a cell holding only sub-grids counts as empty, its
-    /// objects being counted in the sub-grids' cells.
+    /// The census of a grid hierarchy from its levels' statistics. Havran's cells are the
+    /// elementary ones: a cell holding only sub-grids is an inner cell of the hierarchy and is
+    /// not counted (its objects are, in the sub-grids' cells); a cell counts as full when it
+    /// holds an object reference.
     pub fn of_levels(levels: &[GridLevelStats]) -> CellCensus {
         levels
             .iter()
             .fold(CellCensus::default(), |c, l| CellCensus {
-                cells: c.cells + l.cells,
+                cells: c.cells + l.cells - l.grid_only_cells,
                 full_cells: c.full_cells + l.object_cells,
                 object_refs: c.object_refs + l.object_refs,
                 full_volume: c.full_volume + l.object_cell_volume,

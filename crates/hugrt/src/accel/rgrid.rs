@@ -12,21 +12,26 @@
 //!   objects in it: the papers' structure, whose cells never overlap, so each sub-grid is
 //!   walked from its one cell and needs no mailbox (RTNews: "each nested grid along the ray
 //!   path is tested exactly once").
-//! * Termination and memory: the bounds of [`Subdivision`] (depth, a cell holding all of its
-//!   grid's objects is not cut again, references within `2·(64·n + 4096)`). EG95 §1.2.2's
-//!   non-terminating case, more than `maxp` coplanar polygons sharing a point, stops at the
-//!   first level that would only repeat itself.
+//! * Termination and memory: the bounds of [`Subdivision`]: the depth limit, as in the papers,
+//!   and references within `2·(64·n + 4096)`. EG95 §1.2.2's non-terminating case, more than
+//!   `maxp` coplanar polygons sharing a point, grows explosively up to that budget, as the
+//!   paper says it does; `guard=true` (hugrt's, off by default) stops it at the first level
+//!   that would only repeat itself.
 //! * Traversal: the nested grids' walk ([`GridHierarchy::walk`]): a cell's sub-grid is walked
 //!   with the same ray state, and the walk above stops once the nearest hit lies before the
 //!   cell's exit.
 //!
 //! Defaults: `maxp = 50` (EG95's fastest of 50, 100, 150), depth 3 (RTNews: "usually 2 or
-//! 3"; EG95 saw at most 5), `density = 1` (the cube-root rule both papers use).
+//! 3"; EG95 saw at most 5), `density = 1` (the cube-root rule both papers use), cells as
+//! cubical as possible and shifted planes (hugrt's, [`super::grid::SHIFT_KEY`]).
+//!
+//! `preset=eg95` is the recursive grid EG95 measured (§1.2.2, §3): [`EG95`].
 
-use super::grid::{PRUNE_KEY, SIMD_KEY, check_size};
-use super::hierarchy::{GridHierarchy, GridPlan, Prune, Resolution, Subdivision};
+use super::grid::{PRUNE_KEY, SHIFT_KEY, SIMD_KEY, check_size};
+use super::hierarchy::{GridHierarchy, GridPlan, LevelView, Prune, Resolution, Subdivision};
 use super::{
-    Accel, CellCensus, Counters, Hit, PrimStore, Primitives, Spec, SpecError, StructureStats,
+    Accel, CellCensus, Counters, Hit, Preset, PrimStore, Primitives, Spec, SpecError,
+    StructureStats,
 };
 use crate::geometry::Ray;
 
@@ -45,6 +50,7 @@ impl CutGrids {
         spec: &Spec,
         sub: Subdivision,
         prune: Prune,
+        shift: bool,
     ) -> Result<CutGrids, SpecError> {
         let n = prims.len();
         check_size(n)?;
@@ -55,7 +61,9 @@ impl CutGrids {
             resolution: sub.cells.for_objects(n),
             frame: None,
             depth: 0,
+            level: 0,
             scene_box: true,
+            shift,
         };
         let simd = spec.bool("simd", true)?;
         let grids = GridHierarchy::build(prims, store, &[plan], prune, Some(sub), simd)?;
@@ -68,10 +76,12 @@ impl CutGrids {
 
     /// The statistics `hugrt stats` shows for a recursive grid or an octree.
     pub fn stats(&self, memory_bytes: usize) -> StructureStats {
-        let levels = self.grids.level_stats();
+        let levels = self.grids.level_stats(LevelView::Level);
         let mut s = StructureStats::default();
         s.push("maxp", self.sub.maxp as f64);
         s.push("depth_limit", self.sub.max_depth as f64);
+        s.push("guard", self.sub.guard as u8 as f64);
+        s.push("left_uncut_by_budget", self.grids.uncut_by_budget() as f64);
         s.push("grids", self.grids.grid_count() as f64);
         s.push("depth", levels.len() as f64);
         s.push("cells", self.grids.cell_count() as f64);
@@ -101,6 +111,46 @@ pub struct RecursiveGrid {
 /// The deepest level (the root is 0) [`RecursiveGrid`] and [`super::Octree`] accept.
 pub(crate) const MAX_DEPTH: usize = 16;
 
+/// The `guard` key of the cut grids.
+pub(crate) const GUARD_KEY: (&str, &str) = (
+    "guard",
+    "true: a cell holding every object of its grid is not cut again (hugrt's, not the papers'; default false)",
+);
+
+/// EG95's recursive grid (§1.2.2 and §3), after Jevans and Wyvill with Jansen's criterion.
+pub const EG95: Preset = Preset {
+    name: "eg95",
+    pairs: &[
+        (
+            "maxp",
+            "50",
+            "EG95 §3: MAXP 50, the fastest of 50, 100 and 150",
+        ),
+        (
+            "hetero",
+            "false",
+            "EG95 §1.2.2: Jansen's cube-root criterion, n_x = n_y = n_z = cbrt(n_i)",
+        ),
+        (
+            "density",
+            "1",
+            "EG95 §1.2.2: n_i cells for a cell of n_i items",
+        ),
+        (
+            "depth",
+            "5",
+            "EG95 §3 gives no limit; its recursive grids were at most 5 deep",
+        ),
+        (
+            "guard",
+            "false",
+            "EG95 §1.2.2: cells are cut by MAXP and depth only",
+        ),
+        ("shift", "false", "the papers' grids start at their box"),
+        ("prune", "false", "EG95 bins objects by their boxes"),
+    ],
+};
+
 impl Accel for RecursiveGrid {
     const NAME: &'static str = "rgrid";
     const KEYS: &'static [(&'static str, &'static str)] = &[
@@ -120,11 +170,18 @@ impl Accel for RecursiveGrid {
             "hetero",
             "true: cells as cubical as possible (RTNews); false: the same count on every axis (EG95's cube-root criterion) (default true)",
         ),
+        GUARD_KEY,
         PRUNE_KEY,
+        SHIFT_KEY,
         SIMD_KEY,
+        (
+            "preset",
+            "eg95: EG95's recursive grid (maxp 50, cube-root criterion, depth 5)",
+        ),
     ];
 
     fn build<P: Primitives>(prims: &P, spec: &Spec) -> Result<Self, SpecError> {
+        let spec = &spec.with_preset(&[EG95])?;
         let maxp = spec.usize_in("maxp", 50, 1, 1_000_000)?;
         let depth = spec.usize_in("depth", 3, 0, MAX_DEPTH)? as u32;
         let density = spec.f32_in("density", 1.0, 0.001, 1000.0)?;
@@ -133,6 +190,7 @@ impl Accel for RecursiveGrid {
         let sub = Subdivision {
             maxp,
             max_depth: depth,
+            guard: spec.bool("guard", false)?,
             cells: if hetero {
                 Resolution::Cubical(density as f64)
             } else {
@@ -140,7 +198,7 @@ impl Accel for RecursiveGrid {
             },
         };
         Ok(RecursiveGrid {
-            cut: CutGrids::build(prims, spec, sub, prune)?,
+            cut: CutGrids::build(prims, spec, sub, prune, spec.bool("shift", true)?)?,
             density,
             hetero,
         })

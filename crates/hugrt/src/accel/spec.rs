@@ -24,6 +24,26 @@ pub enum SpecError {
     Build(String),
 }
 
+/// A paper's algorithm as a structure's settings: key=value pairs, each with the section of
+/// the paper that fixes it, reached by the structure's `preset` key.
+#[derive(Clone, Copy, Debug)]
+pub struct Preset {
+    pub name: &'static str,
+    /// `(key, value, where the paper says so)`.
+    pub pairs: &'static [(&'static str, &'static str, &'static str)],
+}
+
+impl Preset {
+    /// The preset as a spec's keys, e.g. `filter=levels,levels=3`.
+    pub fn keys(&self) -> String {
+        self.pairs
+            .iter()
+            .map(|(k, v, _)| format!("{k}={v}"))
+            .collect::<Vec<_>>()
+            .join(",")
+    }
+}
+
 /// A parsed spec: the structure's name and its `key=value` pairs in order.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Spec {
@@ -147,6 +167,37 @@ impl Spec {
         }
     }
 
+    /// This spec with a preset's pairs added for the keys it does not give itself: the value
+    /// of `preset` names one of `presets`, and every other key given beside it overrides the
+    /// preset's value. Without a `preset` key the spec is returned as it is.
+    pub fn with_preset(&self, presets: &[Preset]) -> Result<Spec, SpecError> {
+        let Some(name) = self.raw("preset") else {
+            return Ok(self.clone());
+        };
+        let Some(p) = presets.iter().find(|p| p.name == name) else {
+            return Err(SpecError::BadValue {
+                key: "preset".into(),
+                value: name.into(),
+                reason: format!(
+                    "expected one of {}",
+                    presets
+                        .iter()
+                        .map(|p| p.name)
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+            });
+        };
+        let mut out = self.clone();
+        out.params.retain(|(k, _)| k != "preset");
+        for (k, v, _) in p.pairs {
+            if self.raw(k).is_none() {
+                out.params.push((k.to_string(), v.to_string()));
+            }
+        }
+        Ok(out)
+    }
+
     /// The raw value of a key, if given.
     pub fn value(&self, key: &str) -> Option<&str> {
         self.raw(key)
@@ -180,5 +231,28 @@ mod tests {
         assert!(Spec::parse(":x=1").is_err());
         assert!(Spec::parse("grid:a=1,a=2").is_err());
         assert!(s.f32_in("density", 1.0, 0.0, 10.0).is_err());
+    }
+
+    #[test]
+    fn presets_fill_only_the_keys_not_given() {
+        const P: &[Preset] = &[Preset {
+            name: "paper",
+            pairs: &[("a", "1", "§1"), ("b", "2", "§2")],
+        }];
+        let s = Spec::parse("x:preset=paper,b=5")
+            .unwrap()
+            .with_preset(P)
+            .unwrap();
+        assert_eq!(s.value("a"), Some("1"));
+        assert_eq!(s.value("b"), Some("5"));
+        assert_eq!(s.value("preset"), None);
+        assert!(
+            Spec::parse("x:preset=other")
+                .unwrap()
+                .with_preset(P)
+                .is_err()
+        );
+        let plain = Spec::parse("x:a=3").unwrap();
+        assert_eq!(plain.with_preset(P).unwrap(), plain);
     }
 }

@@ -30,15 +30,21 @@ pub fn specs() -> Vec<String> {
             "hug:min_cluster=1,loose=1e30,filter=two,fraction=0.3,pca=true",
             "hug:filter=levels,min_cluster=1,loose=1e30,levels=4,hetero=true,prune=true",
             "hug:min_cluster=3,loose=0.5,pca=true,hetero=true,cluster=cluster3d,alpha=0.5",
-            // EG95 as published, and SCG97's improvements.
-            "hug:filter=levels,cluster=cluster3d,alpha=0.01,world=2n,density=1,prune=false",
-            "hug:filter=two,cluster=cluster3d,alpha=0.01,world=sqrt2,density=1,prune=false",
+            // The papers' algorithms, and hugrt's keys on top of them.
+            "hug:preset=eg95",
+            "hug:preset=scg97",
+            "hug:preset=eg95,insert=contained,shift=true,cells=cubical",
+            "hug:cluster=graph,crowd=off,alpha=0,cells=cube-root,giveback=false",
             // Recursive grids and octrees cut down to a few objects per cell, deep.
             "rgrid:maxp=4",
             "rgrid:maxp=2,depth=6,hetero=false,density=2",
             "rgrid:maxp=8,prune=true,density=0.2",
+            "rgrid:preset=eg95",
+            "rgrid:preset=eg95,maxp=2,shift=true",
+            "rgrid:guard=true,maxp=2,depth=6",
             "octree:maxp=2",
             "octree:maxp=8,depth=3,prune=true",
+            "octree:preset=eg95,maxp=4,guard=true",
             // Adaptive grids: every cluster gridded, however small, with deep sub-voxel grids;
             // everything in the orphan grid; one cluster for everything.
             "agrid:orphans=1,maxp=2,depth=3",
@@ -56,6 +62,11 @@ pub fn specs() -> Vec<String> {
             "kdtree:layout=scattered",
             "kdtree:layout=subtrees",
             "kdtree:cut=true",
+            "kdtree:preset=havran",
+            "kdtree:preset=havran,layout=compact",
+            "kdtree:layout=compact",
+            "kdtree:split=mid,leaf=1,layout=compact",
+            "kdtree:bonus=1,traversal=0.2,step=0.2,cut=true,layout=scattered",
             "kdtree:split=mid,leaf=1,depth=20",
             "kdtree:traversal=0,depth=40",
             // The portable path, where the others test triangles eight at a time.

@@ -16,8 +16,21 @@ pub enum Clustering {
     /// EG95 §2.2: `Isolate` and `Cluster3d` on the projections, δ = α·(level's mean length).
     Cluster3d { alpha: f32 },
     /// SCG97 §7.4: connected components of the box-intersection graph, boxes joined when
-    /// less than δ = α·(level's mean length) apart (α = 0: when they intersect).
-    Graph { alpha: f32 },
+    /// less than δ = α·(level's mean length) apart (α = 0: when they intersect). `crowd`:
+    /// hugrt's shortcut, objects sharing a binning cell with more than this many others are
+    /// joined without a test ([`super::cluster::graph_components`]); `None` tests every pair,
+    /// as the paper does.
+    Graph { alpha: f32, crowd: Option<usize> },
+}
+
+/// The shape of a grid's cells for a given count.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum CellShape {
+    /// As cubical as possible: cells per axis in proportion to the box's sides (Woo; RTNews'
+    /// finding). hugrt's.
+    Cubical,
+    /// The papers' cube-root criterion: `n_x = n_y = n_z = ∛cells` (EG95 §2.2.3, SCG97 §1.3).
+    CubeRoot,
 }
 
 /// How many cells the world grid gets for its `N` items.
@@ -60,6 +73,13 @@ pub struct Settings {
     pub world: WorldCells,
     /// Cells per item of a cluster grid (EG95: 1, the cube-root rule).
     pub density: f32,
+    pub cells: CellShape,
+    /// Whether cell planes are moved off the box's round fractions (hugrt's, one more cell
+    /// along axes of 4 cells or more: `GridHeader::shift_planes`).
+    pub shift: bool,
+    /// Whether small and loose clusters are given back to the enclosing grid (hugrt's; the
+    /// papers keep every cluster): `min_cluster` and `loose` apply only when it is set.
+    pub give_back: bool,
     /// Clusters of fewer objects are given back to the grid they would be inserted into.
     pub min_cluster: usize,
     /// Clusters whose box fills more than this share of the grid they would be inserted into
@@ -80,6 +100,9 @@ pub struct Report {
     pub turned: usize,
     /// Grids referenced by a grid that does not contain them (EG95 Fig. 9's insertion).
     pub partial_insertions: usize,
+    /// Crowded binning cells whose objects the graph clustering joined without testing
+    /// their boxes (its shortcut, or past its work budget).
+    pub crowded_cells: usize,
 }
 
 /// A grid being planned: its plan and where it stands in space.
@@ -145,7 +168,9 @@ pub fn plan(store: &PrimStore, boxes: &[Aabb], s: &Settings) -> (Vec<GridPlan>, 
             resolution: Resolution::Cubical(1.0),
             frame: None,
             depth: 0,
+            level: 0,
             scene_box: true,
+            shift: s.shift,
         },
         local: world_box,
         world: world_box,
@@ -154,7 +179,7 @@ pub fn plan(store: &PrimStore, boxes: &[Aabb], s: &Settings) -> (Vec<GridPlan>, 
     // inserted below the deepest grid that contains it.
     // The levels are clustered independently of each other, so all at once; only the
     // insertion below depends on the order of the levels.
-    let clustered: Vec<(Vec<Item>, Vec<std::ops::Range<usize>>)> = levels
+    let clustered: Vec<(Vec<Item>, Vec<std::ops::Range<usize>>, usize)> = levels
         .par_iter()
         .rev()
         .skip(1)
@@ -172,18 +197,20 @@ pub fn plan(store: &PrimStore, boxes: &[Aabb], s: &Settings) -> (Vec<GridPlan>, 
                     }
                 })
                 .collect();
+            let mut crowded = 0;
             let clusters = match s.clustering {
                 Clustering::Cluster3d { alpha } => cluster3d(&mut items, alpha * level.mean_length),
-                Clustering::Graph { alpha } => {
-                    graph_components(&mut items, alpha * level.mean_length)
+                Clustering::Graph { alpha, crowd } => {
+                    graph_components(&mut items, alpha * level.mean_length, crowd, &mut crowded)
                 }
             };
-            (items, clusters)
+            (items, clusters, crowded)
         })
         .collect();
     let mut marks = Vec::new();
-    for (items, clusters) in clustered {
+    for (from_top, (items, clusters, crowded)) in clustered.into_iter().enumerate() {
         report.clusters += clusters.len();
+        report.crowded_cells += crowded;
         let index = ContainerIndex::new(&grids);
         for range in clusters {
             let objects: Vec<u32> = items[range].iter().map(|it| it.id).collect();
@@ -209,13 +236,15 @@ pub fn plan(store: &PrimStore, boxes: &[Aabb], s: &Settings) -> (Vec<GridPlan>, 
                     resolution: Resolution::Cubical(1.0),
                     frame,
                     depth: grids[parent].plan.depth + 1,
+                    level: from_top as u32 + 1,
                     scene_box: false,
+                    shift: s.shift,
                 },
                 local,
                 world: frame.map_or(world, |f| f.world_box(&local)),
             };
-            let small = candidate.plan.objects.len() < s.min_cluster;
-            let loose = candidate.volume() > s.loose as f64 * grids[parent].volume();
+            let small = s.give_back && candidate.plan.objects.len() < s.min_cluster;
+            let loose = s.give_back && candidate.volume() > s.loose as f64 * grids[parent].volume();
             if small || loose {
                 report.given_back_small += small as usize;
                 report.given_back_loose += (loose && !small) as usize;
@@ -254,7 +283,10 @@ pub fn plan(store: &PrimStore, boxes: &[Aabb], s: &Settings) -> (Vec<GridPlan>, 
                     cells,
                 ))
             } else {
-                Resolution::Cubical(cells)
+                match s.cells {
+                    CellShape::Cubical => Resolution::Cubical(cells),
+                    CellShape::CubeRoot => Resolution::Regular(cells),
+                }
             };
             p.plan
         })

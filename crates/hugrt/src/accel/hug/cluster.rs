@@ -185,8 +185,13 @@ fn union(parent: &mut [u32], a: u32, b: u32) {
     }
 }
 
-/// Objects sharing a cell beyond this count are joined without testing their boxes.
-const CROWD: usize = 64;
+/// hugrt's default for `crowd`: objects sharing a cell beyond this count are joined without
+/// testing their boxes.
+pub const CROWD: usize = 64;
+
+/// Pair tests allowed per object in cells of more than [`CROWD`] objects when every pair is
+/// to be tested (`crowd = None`), beyond which such cells are joined untested.
+const PAIRS_PER_OBJECT: u64 = 512;
 
 /// SCG97 §7.4: the clusters are the connected components of the graph joining objects whose
 /// (closed) boxes intersect, found with union-find. With `delta > 0` the edges join boxes less
@@ -197,10 +202,20 @@ const CROWD: usize = 64;
 /// into the cells it meets (the resolution halved while that makes more than `8n` references,
 /// so that a few long objects do not fill the grid): only boxes sharing a cell are compared.
 ///
-/// A cell holding more than 64 objects (a pile, or a dense patch of objects much smaller than
-/// the cells) joins them all without comparing them: objects crowding one cell are as good as
-/// connected for a grid, and the comparisons stay within `64·8n`.
-pub fn graph_components(items: &mut [Item], delta: f32) -> Vec<Range<usize>> {
+/// With `crowd = Some(c)` (hugrt's default, 64), a cell holding more than `c` objects (a pile,
+/// or a dense patch of objects much smaller than the cells) joins them all without comparing
+/// them: objects crowding one cell are as good as connected for a grid, and the comparisons
+/// stay within `c·8n`. That is not SCG97's graph: two piles side by side in one cell become
+/// one cluster. With `crowd = None` every pair sharing a cell is tested, as the paper's graph
+/// asks, within a budget of `512·n + 2^20` tests in cells of more than 64 objects: past it
+/// (all `n` objects in one cell would take `n²/2`), the remaining crowded cells are joined
+/// untested, so the build cannot hang. `crowded` counts the cells joined untested either way.
+pub fn graph_components(
+    items: &mut [Item],
+    delta: f32,
+    crowd: Option<usize>,
+    crowded: &mut usize,
+) -> Vec<Range<usize>> {
     let n = items.len();
     if n == 0 {
         return Vec::new();
@@ -283,9 +298,23 @@ pub fn graph_components(items: &mut [Item], delta: f32) -> Vec<Range<usize>> {
         });
         let mut parent: Vec<u32> = (0..n as u32).collect();
         let touch = |a: &Item, b: &Item| (0..3).all(|k| a.lo[k] <= b.hi[k] && b.lo[k] <= a.hi[k]);
+        let mut budget = PAIRS_PER_OBJECT * n as u64 + (1 << 20);
         for c in 0..cells {
             let m = &members[start[c] as usize..start[c + 1] as usize];
-            if m.len() > CROWD {
+            let pairs = (m.len() as u64 * m.len().saturating_sub(1) as u64) / 2;
+            let join = match crowd {
+                Some(limit) => m.len() > limit,
+                None if m.len() > CROWD => match budget.checked_sub(pairs) {
+                    Some(left) => {
+                        budget = left;
+                        false
+                    }
+                    None => true,
+                },
+                None => false,
+            };
+            if join {
+                *crowded += 1;
                 for &j in &m[1..] {
                     union(&mut parent, m[0], j);
                 }
@@ -396,11 +425,14 @@ mod tests {
             item([2.0, 5.0, 0.0], [3.0, 6.0, 1.0], 2),
             item([20.0, 0.0, 0.0], [21.0, 1.0, 1.0], 3),
         ];
-        let c = graph_components(&mut items, 0.0);
+        let c = graph_components(&mut items, 0.0, Some(CROWD), &mut 0);
         assert_eq!(ids(&items, &c), vec![vec![0, 1], vec![2], vec![3]]);
         // Within δ of the L along every axis, the lone box joins it.
         let mut near = items.clone();
-        assert_eq!(graph_components(&mut near, 4.1).len(), 2);
+        assert_eq!(
+            graph_components(&mut near, 4.1, Some(CROWD), &mut 0).len(),
+            2
+        );
         let mut again = items.clone();
         assert_eq!(cluster3d(&mut again, 0.01).len(), 2);
     }
@@ -422,10 +454,38 @@ mod tests {
     }
 
     #[test]
+    fn every_pair_is_tested_without_the_crowd_shortcut() {
+        // Two piles of 100 boxes, 0.1 apart, share one binning cell (the level spans 1000
+        // along x): the shortcut joins them, the paper's graph does not.
+        let mut items: Vec<Item> = (0..100).map(|i| cube([0.5; 3], 0.5, i)).collect();
+        items.extend((100..200).map(|i| cube([1.6, 0.5, 0.5], 0.5, i)));
+        items.extend((200..210).map(|i| cube([100.0 * (i - 199) as f32, 0.5, 0.5], 0.1, i)));
+        let mut crowded = 0;
+        let shortcut = graph_components(&mut items.clone(), 0.0, Some(CROWD), &mut crowded);
+        assert_eq!(shortcut.len(), 11);
+        assert!(crowded >= 1);
+        let mut crowded = 0;
+        let exact = graph_components(&mut items, 0.0, None, &mut crowded);
+        assert_eq!(exact.len(), 12);
+        assert_eq!(crowded, 0);
+    }
+
+    #[test]
     fn budgets_keep_piles_of_overlaps_linear() {
         // 5000 identical boxes: every pair overlaps. Both algorithms finish with one cluster.
         let mut items: Vec<Item> = (0..5000).map(|i| cube([0.0; 3], 1.0, i)).collect();
-        assert_eq!(graph_components(&mut items, 0.0).len(), 1);
+        assert_eq!(
+            graph_components(&mut items, 0.0, Some(CROWD), &mut 0).len(),
+            1
+        );
+        // Testing every pair: 12.5 million pairs in each of the cells the pile fills, past
+        // the budget of 3.6 million, so the pile is joined untested.
+        let mut crowded = 0;
+        assert_eq!(
+            graph_components(&mut items, 0.0, None, &mut crowded).len(),
+            1
+        );
+        assert!(crowded >= 1);
         assert_eq!(cluster3d(&mut items, 0.01).len(), 1);
     }
 }

@@ -1,15 +1,17 @@
 //! kd-tree: an axis-aligned BSP tree (Havran §3.5.1–3.5.2).
 //!
 //! * `split=sah` (default): the plane minimising Havran's cost (eq. 3),
-//!   `C = T_T + (S_L/S)·n_L + (S_R/S)·n_R` in units of one intersection test, searched over
-//!   the key positions of §4.2 (every primitive box's min and max, clipped to the node, on all
-//!   three axes) by a sweep over the sorted events (Wald and Havran, "On building fast
-//!   kd-trees for ray tracing", 2006: ends before planars before starts at one position, and a
-//!   planar primitive on whichever side is cheaper); a side left empty has its cost scaled by
-//!   0.8, the usual reward for cutting off empty space. A node becomes a leaf when no plane
-//!   costs less than testing its primitives. Events are sorted at each node, by a
-//!   linear-time radix sort of their integer keys in nodes of 1024 events or more, so each
-//!   level of the tree costs `O(n)` and the build `O(n log n)` (depth bounded by `O(log n)`).
+//!   `C = T_P + T_T + (S_L/S)·n_L + (S_R/S)·n_R` in units of one intersection test (`traversal`
+//!   is `T_P + T_T`), searched over the key positions of §4.2 (every primitive box's min and
+//!   max, clipped to the node, on all three axes) by a sweep over the sorted events (Wald and
+//!   Havran, "On building fast kd-trees for ray tracing", 2006: ends before planars before
+//!   starts at one position, and a planar primitive on whichever side is cheaper). A node
+//!   becomes a leaf when no plane costs less than testing its primitives. Events are sorted at
+//!   each node, by a linear-time radix sort of their integer keys in nodes of 1024 events or
+//!   more, so each level of the tree costs `O(n)` and the build `O(n log n)` (depth bounded by
+//!   `O(log n)`). hugrt's departure, on by default (`bonus`, 1 in the `havran` preset): a
+//!   plane that leaves a side empty has its object terms scaled by 0.8, the usual reward for
+//!   cutting off empty space.
 //! * `split=mid`: Sung and Shirley's mid-point split on cyclic axes, until a leaf holds `leaf`
 //!   primitives (default 3) or the depth reaches `depth` (default 30).
 //! * Both stop at the depth limit (`depth`; for the SAH `8 + 1.3·log2 n` unless given), and a
@@ -25,17 +27,19 @@
 //! a nearer hit beyond it. A ray lying in a splitting plane (0·∞) visits one side, which holds
 //! everything on the plane.
 //!
-//! Layouts (`layout`, Havran §4.3): the same tree with its nodes placed depth first (default),
-//! breadth first, scattered (pairs shuffled, as individually allocated nodes would lie) or as
-//! compact subtrees packed into 64-byte cache lines. Children are always stored in pairs, so
-//! an inner node holds one child index.
+//! Layouts (`layout`, Havran §4.3): [`layout`].
 //!
-//! Cutting off empty space (`cut=true`, Havran §4.2.2, eq. 7–8): a node of one primitive is
-//! split too when a plane at the primitive's box, leaving the other side empty, costs less
-//! than the test by the cost above (with the traversal cost 0.75 and the empty side's 0.8,
-//! when the primitive's slab holds under ~31% of the node's surface: Havran finds it pays
-//! under 25–40%). Off by default: it measured ×0.93–1.12, within the noise, as Havran found
+//! Cutting off empty space (`cut=true`, Havran §4.2.2): a plane that leaves one side empty is
+//! costed by eq. 7, `T_P + ((S_L + S_R)/S)·T_T + (S_full/S)·n`, the step into each child
+//! weighed by the probability of entering it (`step` is `T_T`), at every node: Havran's
+//! "early" cutting of inner nodes (Fig. 10, his method *newsf*) as well as of leaves; and a
+//! node of one primitive is split too when eq. 8 says it pays (with the `havran` preset's
+//! costs, when the primitive's side holds under 47% of a cubical node's surface; Havran finds
+//! the break-even at 25% for spheres and 40% for triangles). Off by default: cutting single
+//! primitives measured ×0.93–1.12 by the earlier, eq. 3 form, within the noise, as Havran found
 //! (1–7%).
+//!
+//! `preset=havran` is Havran's method (2) of Tables 5–6: [`HAVRAN`].
 //!
 //! Havran's way to `O(n log n)`, events sorted once and kept sorted through the splits, was
 //! built and gave the same tree 2× slower on two cores (`docs/measurements.md`); the radix
@@ -43,12 +47,15 @@
 //! (bunny 368–380 against 368–440 ms, spd-mount-big 1.85–2.00 against 1.84–1.94 s, 3 runs
 //! each).
 
+mod layout;
+
 use super::sort::radix_sort_keys;
 use super::store::{Nearest, PrimStore, finite};
 use super::{
-    Accel, CellCensus, Counters, Hit, Mailbox, Primitives, Spec, SpecError, StructureStats,
+    Accel, CellCensus, Counters, Hit, Mailbox, Preset, Primitives, Spec, SpecError, StructureStats,
 };
 use crate::geometry::{Aabb, PreparedRay, Ray};
+use layout::{Layout, Lines, Logical, NodeStore, Nodes, Visit};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// See [`super::bvh`]: the same widening, for the same reason.
@@ -60,54 +67,6 @@ const RADIX_EVENTS: usize = 1024;
 /// Deepest tree allowed by the `depth` key.
 const MAX_DEPTH: usize = 64;
 
-/// Leaf marker in [`KdNode::a`]'s two low bits.
-const LEAF: u32 = 3;
-
-/// Eight bytes. Inner: `a` = axis | a child's index << 2, `b` = the plane's `f32` bits: in
-/// the depth-first layout the child below the plane follows its parent and the index is the
-/// child above; in the others children are stored in pairs and the index is the child below,
-/// the child above the next one. Leaf: `a` = 3 | count << 2, `b` = first reference.
-#[derive(Clone, Copy, Default)]
-struct KdNode {
-    a: u32,
-    b: u32,
-}
-
-/// Eight nodes in one 64-byte cache line: the nodes are stored line by line, so that a layout
-/// can place a subtree in one line (Havran §4.3).
-#[derive(Clone, Copy, Default)]
-#[repr(C, align(64))]
-struct Line([KdNode; 8]);
-
-/// Where the nodes lie in memory (Havran §4.3).
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
-enum Layout {
-    /// Depth first: a node, its subtree below the plane, then its subtree above.
-    DepthFirst,
-    /// Breadth first, level after level.
-    BreadthFirst,
-    /// Pairs scattered at random, as individually allocated nodes would be.
-    Scattered,
-    /// Compact subtrees: from a root at the start of a cache line, its descendants breadth
-    /// first in the same line while a pair fits; the pairs that do not start lines of their
-    /// own.
-    Subtrees,
-}
-
-/// The tree before it is laid out: children explicit.
-enum Logical {
-    Leaf {
-        start: u32,
-        count: u32,
-    },
-    Inner {
-        axis: u32,
-        split: f32,
-        below: usize,
-        above: usize,
-    },
-}
-
 #[derive(Clone, Copy, PartialEq, Eq)]
 enum SplitRule {
     Sah,
@@ -115,9 +74,9 @@ enum SplitRule {
 }
 
 pub struct KdTree {
-    lines: Vec<Line>,
-    /// Nodes in the tree (the lines may hold unused slots).
-    nodes: usize,
+    nodes: Nodes,
+    /// Nodes in the tree (a layout may hold unused slots).
+    node_count: usize,
     layout: Layout,
     refs: Vec<u32>,
     store: PrimStore,
@@ -149,8 +108,13 @@ struct Builder<'a> {
     rule: SplitRule,
     leaf_size: usize,
     max_depth: usize,
+    /// Eq. 3's `T_P + T_T`, in units of one object test.
     traversal_cost: f32,
-    /// Havran's cutting off empty space around single primitives (§4.2.2).
+    /// Its `T_T` part, which eq. 7 weighs by each child's probability.
+    step_cost: f32,
+    /// hugrt's factor on the object terms of a plane that leaves a side empty (1: eq. 3).
+    empty_bonus: f32,
+    /// Havran's cutting off empty space (§4.2.2, eq. 7–8).
     cut: bool,
     /// References still allowed beyond one per primitive.
     budget: AtomicUsize,
@@ -164,7 +128,42 @@ struct Plane {
     cost: f32,
 }
 
+/// hugrt's default `bonus`, the usual reward for cutting off empty space (Wald and Havran
+/// 2006), not in Havran's eq. 3.
 const EMPTY_BONUS: f32 = 0.8;
+
+/// Havran's kd-tree (§3.5.2, §4.2): method (2) of his Tables 5–6.
+pub const HAVRAN: Preset = Preset {
+    name: "havran",
+    pairs: &[
+        (
+            "split",
+            "sah",
+            "Havran §4.2: eq. 3 minimised over the key positions of all three axes",
+        ),
+        ("bonus", "1", "Havran eq. 3 has no reward for an empty side"),
+        (
+            "cut",
+            "true",
+            "Havran §4.2.2–4.2.3: method (2) cuts off empty space, eq. 7–8",
+        ),
+        (
+            "traversal",
+            "0.57",
+            "T_P + T_T: Havran gives no values; these make eq. 8 pay below 40% of a cube's area, his break-even for triangles",
+        ),
+        (
+            "step",
+            "0.095",
+            "T_T = T_P / 5: Havran §4.2.2, the pop much cheaper than the decision",
+        ),
+        (
+            "layout",
+            "depth-first",
+            "Havran §4.3.2: the DFS representation, his usual one",
+        ),
+    ],
+};
 
 /// Event kinds in sweep order at one position: ends, planars, starts.
 const END: u8 = 0;
@@ -335,9 +334,18 @@ impl Builder<'_> {
                         } else {
                             (nl, nr + planars)
                         };
-                        let bonus = if l == 0 || r == 0 { EMPTY_BONUS } else { 1.0 };
-                        let cost =
-                            self.traversal_cost + bonus * (sl * l as f32 + sr * r as f32) / area;
+                        let objects = (sl * l as f32 + sr * r as f32) / area;
+                        let empty = l == 0 || r == 0;
+                        let cost = if empty && self.cut {
+                            // Eq. 7: the step into each child weighed by its probability.
+                            self.traversal_cost - self.step_cost
+                                + (sl + sr) / area * self.step_cost
+                                + objects
+                        } else if empty {
+                            self.traversal_cost + self.empty_bonus * objects
+                        } else {
+                            self.traversal_cost + objects
+                        };
                         if best.as_ref().is_none_or(|b| cost < b.cost) {
                             best = Some(Plane {
                                 axis,
@@ -405,129 +413,93 @@ impl KdTree {
         id
     }
 
-    /// Places the logical nodes in memory by `layout` and writes them.
-    fn lay_out(&mut self, tree: &[Logical]) {
-        let n = tree.len();
-        let mut slot = vec![u32::MAX; n];
-        let mut next = 1u32;
-        slot[0] = 0;
-        let children = |id: usize| match tree[id] {
-            Logical::Inner { below, above, .. } => Some((below, above)),
-            Logical::Leaf { .. } => None,
-        };
-        match self.layout {
-            Layout::DepthFirst => {
-                let mut stack = vec![0usize];
-                next = 0;
-                while let Some(id) = stack.pop() {
-                    slot[id] = next;
-                    next += 1;
-                    if let Some((b, a)) = children(id) {
-                        stack.push(a);
-                        stack.push(b);
+    /// The near/far descent (module documentation) over one of the layouts.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn walk<N: NodeStore, P: Primitives, C: Counters, const ANY_HIT: bool>(
+        &self,
+        nodes: &N,
+        prims: &P,
+        ray: &Ray,
+        pr: &PreparedRay,
+        t0: f32,
+        t1: f32,
+        counters: &mut C,
+    ) -> Option<Hit> {
+        let pr = *pr;
+        let mut near = Nearest::new(ray.tmax);
+        let o = ray.origin.to_array();
+        let d = ray.dir.to_array();
+        let inv = pr.inv_dir.to_array();
+        let mut mail = Mailbox::default();
+        // Left uninitialised, as the bvh's: zeroing 1.5 KB a ray costs more than a short walk.
+        let mut stack =
+            [const { std::mem::MaybeUninit::<(u32, f32, f32)>::uninit() }; 2 * MAX_DEPTH + 2];
+        let mut top = 0;
+        let (mut node, mut tn, mut tf) = (nodes.root(), t0, t1);
+        loop {
+            if tn <= near.t {
+                counters.cell_visit(0);
+                let (start, count) = match nodes.visit(node) {
+                    Visit::Leaf { start, count } => (start, count),
+                    Visit::Inner {
+                        axis,
+                        split,
+                        below,
+                        above,
+                    } => {
+                        let below_first = o[axis] < split || (o[axis] == split && d[axis] <= 0.0);
+                        let (first, second) = if below_first {
+                            (below, above)
+                        } else {
+                            (above, below)
+                        };
+                        let ts = (split - o[axis]) * inv[axis];
+                        // NaN (the ray lies in the plane) visits the first side only.
+                        if ts > tf || ts <= 0.0 || ts.is_nan() {
+                            node = first;
+                        } else if ts < tn {
+                            node = second;
+                        } else {
+                            stack[top].write((second, ts, tf));
+                            top += 1;
+                            node = first;
+                            tf = ts;
+                        }
+                        continue;
                     }
-                }
-            }
-            Layout::Scattered => {
-                let mut stack = vec![0usize];
-                while let Some(id) = stack.pop() {
-                    if let Some((b, a)) = children(id) {
-                        slot[b] = next;
-                        slot[a] = next + 1;
-                        next += 2;
-                        stack.push(a);
-                        stack.push(b);
+                };
+                for &r in &self.refs[start..start + count] {
+                    if !mail.first_visit(r) {
+                        continue;
                     }
-                }
-            }
-            Layout::BreadthFirst => {
-                let mut queue = std::collections::VecDeque::from([0usize]);
-                while let Some(id) = queue.pop_front() {
-                    if let Some((b, a)) = children(id) {
-                        slot[b] = next;
-                        slot[a] = next + 1;
-                        next += 2;
-                        queue.push_back(b);
-                        queue.push_back(a);
-                    }
-                }
-            }
-            Layout::Subtrees => {
-                // Lines are filled from subtree roots; a pair that does not fit in the line
-                // of its parent starts a new line, whose subtree is laid out later.
-                let mut lines = std::collections::VecDeque::from([vec![0usize]]);
-                next = 0;
-                while let Some(roots) = lines.pop_front() {
-                    let line_start = next.next_multiple_of(8);
-                    next = line_start;
-                    for &r in &roots {
-                        slot[r] = next;
-                        next += 1;
-                    }
-                    let mut queue: std::collections::VecDeque<usize> = roots.into();
-                    while let Some(id) = queue.pop_front() {
-                        if let Some((b, a)) = children(id) {
-                            if next + 2 <= line_start + 8 {
-                                slot[b] = next;
-                                slot[a] = next + 1;
-                                next += 2;
-                                queue.push_back(b);
-                                queue.push_back(a);
-                            } else {
-                                lines.push_back(vec![b, a]);
-                            }
+                    counters.prim_test(0);
+                    if let Some(t) = self.store.intersect(prims, r, &pr, ray.tmin, near.t) {
+                        counters.prim_hit(0);
+                        if near.offer(&self.store, t, r) && ANY_HIT {
+                            return near.hit(&self.store);
                         }
                     }
                 }
+                if near.t <= tf {
+                    break;
+                }
             }
-        }
-        if self.layout == Layout::Scattered {
-            // Pairs (slots 2k+1, 2k+2) shuffled with a fixed seed; the root stays first.
-            use rand::{SeedableRng, seq::SliceRandom};
-            let pairs = (next as usize - 1) / 2;
-            let mut order: Vec<u32> = (0..pairs as u32).collect();
-            order.shuffle(&mut rand_pcg::Pcg64Mcg::seed_from_u64(7));
-            for s in slot.iter_mut().skip(1) {
-                let k = (*s - 1) / 2;
-                *s = 1 + 2 * order[k as usize] + (*s - 1) % 2;
+            if top == 0 {
+                break;
             }
+            top -= 1;
+            // SAFETY: every entry below `top` has been written: `top` grows only by one, right
+            // after `stack[top].write` (a bounds-checked index; one entry per inner node on the
+            // way down of a tree at most `MAX_DEPTH` deep keeps it from panicking).
+            (node, tn, tf) = unsafe { stack[top].assume_init() };
         }
-        let total = slot.iter().map(|&s| s as usize + 1).max().unwrap_or(1);
-        self.lines = vec![Line::default(); total.div_ceil(8)];
-        for (id, node) in tree.iter().enumerate() {
-            let s = slot[id] as usize;
-            self.lines[s / 8].0[s % 8] = match *node {
-                Logical::Leaf { start, count } => KdNode {
-                    a: LEAF | count << 2,
-                    b: start,
-                },
-                Logical::Inner {
-                    axis,
-                    split,
-                    below,
-                    above,
-                } => KdNode {
-                    a: axis
-                        | if self.layout == Layout::DepthFirst {
-                            slot[above]
-                        } else {
-                            slot[below]
-                        } << 2,
-                    b: split.to_bits(),
-                },
-            };
-        }
-        self.nodes = n;
+        near.hit(&self.store)
     }
 
     /// Bytes of the nodes and leaf references, without the store.
     fn structure_bytes(&self) -> usize {
-        self.lines.capacity() * std::mem::size_of::<Line>() + self.refs.capacity() * 4
-    }
-
-    #[inline(always)]
-    fn node(&self, i: u32) -> KdNode {
-        self.lines[(i >> 3) as usize].0[(i & 7) as usize]
+        self.nodes.bytes() + self.refs.capacity() * 4
     }
 }
 
@@ -551,16 +523,29 @@ impl Accel for KdTree {
             "sah: cost of a traversal step relative to a primitive test, 0..100 (default 0.75)",
         ),
         (
+            "step",
+            "sah: the part of traversal that is the step into a child (T_T), weighed by the child's probability in eq. 7 (default 0.15)",
+        ),
+        (
+            "bonus",
+            "sah: factor on the object terms of a plane leaving a side empty, 0..1 (hugrt's default 0.8; 1 is eq. 3)",
+        ),
+        (
             "cut",
-            "sah: true cuts off the empty space around single primitives when eq. 3 says it pays (Havran 4.2.2; default false)",
+            "sah: true costs planes leaving a side empty by eq. 7 at every node and considers nodes of one object too (Havran 4.2.2; default false)",
         ),
         (
             "layout",
-            "nodes in memory (Havran 4.3): depth-first (default), breadth-first, scattered, subtrees (packed in 64-byte lines)",
+            "nodes in memory (Havran 4.3): depth-first (default), breadth-first, scattered (nodes at random), subtrees (ordinary, in 64-byte lines), compact (pointer-free subtrees of 7 nodes a line)",
+        ),
+        (
+            "preset",
+            "havran: Havran's method (2), eq. 3 with cutting off empty space (eq. 7-8)",
         ),
     ];
 
     fn build<P: Primitives>(prims: &P, spec: &Spec) -> Result<Self, SpecError> {
+        let spec = &spec.with_preset(&[HAVRAN])?;
         let rule = match spec.choice("split", &["sah", "mid"], "sah")? {
             "mid" => SplitRule::Mid,
             _ => SplitRule::Sah,
@@ -573,6 +558,8 @@ impl Accel for KdTree {
         };
         let max_depth = spec.usize_in("depth", default_depth.min(MAX_DEPTH), 1, MAX_DEPTH)?;
         let traversal_cost = spec.f32_in("traversal", 0.75, 0.0, 100.0)?;
+        let step_cost = spec.f32_in("step", 0.15, 0.0, 100.0)?.min(traversal_cost);
+        let empty_bonus = spec.f32_in("bonus", EMPTY_BONUS, 0.0, 1.0)?;
         let cut = spec.bool("cut", false)?;
         if n >= 1 << 30 {
             return Err(SpecError::Build(format!(
@@ -603,23 +590,16 @@ impl Accel for KdTree {
             leaf_size: if rule == SplitRule::Mid { leaf_size } else { 1 },
             max_depth,
             traversal_cost,
+            step_cost,
+            empty_bonus,
             cut,
             budget: AtomicUsize::new(63 * items.len() + 4096),
         };
         let root = builder.build(items, bounds, 0);
-        let layout = match spec.choice(
-            "layout",
-            &["depth-first", "breadth-first", "scattered", "subtrees"],
-            "depth-first",
-        )? {
-            "breadth-first" => Layout::BreadthFirst,
-            "scattered" => Layout::Scattered,
-            "subtrees" => Layout::Subtrees,
-            _ => Layout::DepthFirst,
-        };
+        let layout = Layout::from_name(spec.choice("layout", Layout::NAMES, "depth-first")?);
         let mut tree = KdTree {
-            lines: Vec::new(),
-            nodes: 0,
+            nodes: Nodes::Lines(Lines::default()),
+            node_count: 0,
             layout,
             refs: Vec::new(),
             store,
@@ -629,7 +609,8 @@ impl Accel for KdTree {
         };
         let mut logical = Vec::new();
         tree.flatten(root, bounds, 0, &mut logical);
-        tree.lay_out(&logical);
+        tree.nodes = Nodes::lay_out(&logical, layout);
+        tree.node_count = logical.len();
         tree.refs.shrink_to_fit();
         Ok(tree)
     }
@@ -644,79 +625,17 @@ impl Accel for KdTree {
             return None;
         }
         let pr = PreparedRay::new(ray);
-        let mut near = Nearest::new(ray.tmax);
         counters.box_test(0);
         let (t0, t1) = self.bounds.intersect(&pr, ray.tmin, ray.tmax)?;
-        let o = ray.origin.to_array();
-        let d = ray.dir.to_array();
-        let inv = pr.inv_dir.to_array();
-        let mut mail = Mailbox::default();
-        let pairs = self.layout != Layout::DepthFirst;
-        // Left uninitialised, as the bvh's: zeroing 1.5 KB a ray costs more than a short walk.
-        let mut stack =
-            [const { std::mem::MaybeUninit::<(u32, f32, f32)>::uninit() }; 2 * MAX_DEPTH + 2];
-        let mut top = 0;
-        let (mut node, mut tn, mut tf) = (0u32, t0, t1);
-        loop {
-            if tn <= near.t {
-                counters.cell_visit(0);
-                let kd = self.node(node);
-                if kd.a & 3 != LEAF {
-                    let axis = (kd.a & 3) as usize;
-                    let split = f32::from_bits(kd.b);
-                    let (below, above) = if pairs {
-                        (kd.a >> 2, (kd.a >> 2) + 1)
-                    } else {
-                        (node + 1, kd.a >> 2)
-                    };
-                    let below_first = o[axis] < split || (o[axis] == split && d[axis] <= 0.0);
-                    let (first, second) = if below_first {
-                        (below, above)
-                    } else {
-                        (above, below)
-                    };
-                    let ts = (split - o[axis]) * inv[axis];
-                    // NaN (the ray lies in the plane) visits the first side only.
-                    if ts > tf || ts <= 0.0 || ts.is_nan() {
-                        node = first;
-                    } else if ts < tn {
-                        node = second;
-                    } else {
-                        stack[top].write((second, ts, tf));
-                        top += 1;
-                        node = first;
-                        tf = ts;
-                    }
-                    continue;
-                }
-                let start = kd.b as usize;
-                let count = (kd.a >> 2) as usize;
-                for &r in &self.refs[start..start + count] {
-                    if !mail.first_visit(r) {
-                        continue;
-                    }
-                    counters.prim_test(0);
-                    if let Some(t) = self.store.intersect(prims, r, &pr, ray.tmin, near.t) {
-                        counters.prim_hit(0);
-                        if near.offer(&self.store, t, r) && ANY_HIT {
-                            return near.hit(&self.store);
-                        }
-                    }
-                }
-                if near.t <= tf {
-                    break;
-                }
+        match &self.nodes {
+            Nodes::Lines(n) => self.walk::<_, P, C, ANY_HIT>(n, prims, ray, &pr, t0, t1, counters),
+            Nodes::Scattered(n) => {
+                self.walk::<_, P, C, ANY_HIT>(n, prims, ray, &pr, t0, t1, counters)
             }
-            if top == 0 {
-                break;
+            Nodes::Compact(n) => {
+                self.walk::<_, P, C, ANY_HIT>(n, prims, ray, &pr, t0, t1, counters)
             }
-            top -= 1;
-            // SAFETY: every entry below `top` has been written: `top` grows only by one, right
-            // after `stack[top].write` (a bounds-checked index; one entry per inner node on the
-            // way down of a tree at most `MAX_DEPTH` deep keeps it from panicking).
-            (node, tn, tf) = unsafe { stack[top].assume_init() };
         }
-        near.hit(&self.store)
     }
 
     fn memory_bytes(&self) -> usize {
@@ -729,8 +648,8 @@ impl Accel for KdTree {
         let mut s = StructureStats::default();
         s.push("split_mid", (self.rule == SplitRule::Mid) as u8 as f64);
         s.push("layout", self.layout as u8 as f64);
-        s.push("cache_lines", self.lines.len() as f64);
-        s.push("nodes", self.nodes as f64);
+        s.push("cache_lines", self.nodes.cache_lines() as f64);
+        s.push("nodes", self.node_count as f64);
         s.push("leaves", t.leaves as f64);
         s.push("empty_leaves", t.empty_leaves as f64);
         s.push("max_depth", t.max_depth as f64);
@@ -746,7 +665,7 @@ impl Accel for KdTree {
             self.store.len(),
         );
         s.census = CellCensus {
-            cells: self.nodes,
+            cells: t.leaves,
             full_cells: t.leaves - t.empty_leaves,
             object_refs: self.refs.len(),
             full_volume: t.full_volume,

@@ -1,0 +1,550 @@
+//! Where a kd-tree's nodes lie in memory (Havran §4.3): the same tree, node for node, in five
+//! representations, each read by the one traversal through [`NodeStore`].
+//!
+//! * `depth-first` (Havran's DFS representation, Fig. 11b): a node, its subtree below the
+//!   plane, then its subtree above; an inner node holds the index of the child above, the
+//!   child below follows it. Eight bytes a node, eight nodes to a 64-byte line.
+//! * `breadth-first`: level after level, children in pairs (an inner node holds the index of
+//!   the pair).
+//! * `subtrees` (Havran's ordinary subtrees, Fig. 12a): from a root at the start of a 64-byte
+//!   line, its descendants breadth first in the same line while a pair fits; the pairs that do
+//!   not fit start lines of their own. Nodes as in the pair layouts, pointers included.
+//! * `compact` (Havran's compact subtrees, Fig. 12b): one complete subtree of three levels
+//!   (seven nodes) per 64-byte line, with no pointers inside it: node `k`'s children are
+//!   `2k + 1` and `2k + 2` of the same line, and only the four nodes of its last level hold
+//!   their children's addresses (a line, or a leaf). Two bits per node say its axis or that it
+//!   is a leaf (Havran's "special data variable"); a leaf's slot holds the index of its
+//!   `(start, count)`.
+//! * `scattered` (Havran's random representation, Fig. 11a): every node placed at random
+//!   (a fixed seed), each inner node holding both children's indices, as nodes allocated one
+//!   by one would lie.
+
+/// The tree before it is laid out: children explicit.
+pub(super) enum Logical {
+    Leaf {
+        start: u32,
+        count: u32,
+    },
+    Inner {
+        axis: u32,
+        split: f32,
+        below: usize,
+        above: usize,
+    },
+}
+
+/// The memory layouts of the module documentation.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub(super) enum Layout {
+    DepthFirst,
+    BreadthFirst,
+    Scattered,
+    Subtrees,
+    Compact,
+}
+
+impl Layout {
+    pub const NAMES: &'static [&'static str] = &[
+        "depth-first",
+        "breadth-first",
+        "scattered",
+        "subtrees",
+        "compact",
+    ];
+
+    pub fn from_name(name: &str) -> Layout {
+        match name {
+            "breadth-first" => Layout::BreadthFirst,
+            "scattered" => Layout::Scattered,
+            "subtrees" => Layout::Subtrees,
+            "compact" => Layout::Compact,
+            _ => Layout::DepthFirst,
+        }
+    }
+}
+
+/// A node as the traversal reads it.
+pub(super) enum Visit {
+    Inner {
+        axis: usize,
+        split: f32,
+        below: u32,
+        above: u32,
+    },
+    Leaf {
+        start: usize,
+        count: usize,
+    },
+}
+
+/// A representation of the tree: where the walk starts and what a node reference names.
+pub(super) trait NodeStore {
+    fn root(&self) -> u32;
+    fn visit(&self, node: u32) -> Visit;
+}
+
+/// Leaf marker in [`KdNode::a`]'s two low bits.
+const LEAF: u32 = 3;
+
+/// Eight bytes. Inner: `a` = axis | a child's index << 2, `b` = the plane's `f32` bits: in
+/// the depth-first layout the child below the plane follows its parent and the index is the
+/// child above; in the pair layouts the index is the child below, the child above the next
+/// one. Leaf: `a` = 3 | count << 2, `b` = first reference.
+#[derive(Clone, Copy, Default)]
+struct KdNode {
+    a: u32,
+    b: u32,
+}
+
+/// Eight nodes in one 64-byte cache line.
+#[derive(Clone, Copy, Default)]
+#[repr(C, align(64))]
+struct Line([KdNode; 8]);
+
+/// The depth-first, breadth-first and ordinary-subtree layouts.
+#[derive(Default)]
+pub(super) struct Lines {
+    lines: Vec<Line>,
+    /// Children in pairs (the index names the child below) rather than depth first.
+    pairs: bool,
+}
+
+impl NodeStore for Lines {
+    #[inline(always)]
+    fn root(&self) -> u32 {
+        0
+    }
+
+    #[inline(always)]
+    fn visit(&self, i: u32) -> Visit {
+        let kd = self.lines[(i >> 3) as usize].0[(i & 7) as usize];
+        if kd.a & 3 == LEAF {
+            return Visit::Leaf {
+                start: kd.b as usize,
+                count: (kd.a >> 2) as usize,
+            };
+        }
+        let (below, above) = if self.pairs {
+            (kd.a >> 2, (kd.a >> 2) + 1)
+        } else {
+            (i + 1, kd.a >> 2)
+        };
+        Visit::Inner {
+            axis: (kd.a & 3) as usize,
+            split: f32::from_bits(kd.b),
+            below,
+            above,
+        }
+    }
+}
+
+/// A node of the scattered layout: [`KdNode`] and the index of the child above.
+#[derive(Clone, Copy, Default)]
+struct LooseNode {
+    node: KdNode,
+    above: u32,
+}
+
+/// The scattered layout.
+pub(super) struct Scattered {
+    nodes: Vec<LooseNode>,
+    root: u32,
+}
+
+impl NodeStore for Scattered {
+    #[inline(always)]
+    fn root(&self) -> u32 {
+        self.root
+    }
+
+    #[inline(always)]
+    fn visit(&self, i: u32) -> Visit {
+        let LooseNode { node: kd, above } = self.nodes[i as usize];
+        if kd.a & 3 == LEAF {
+            return Visit::Leaf {
+                start: kd.b as usize,
+                count: (kd.a >> 2) as usize,
+            };
+        }
+        Visit::Inner {
+            axis: (kd.a & 3) as usize,
+            split: f32::from_bits(kd.b),
+            below: kd.a >> 2,
+            above,
+        }
+    }
+}
+
+/// A reference with this bit names a leaf of [`Compact::leaves`]; otherwise it is
+/// `line << 3 | node`.
+const LEAF_TAG: u32 = 1 << 31;
+
+/// One compact subtree: seven nodes in heap order, 64 bytes.
+#[derive(Clone, Copy, Default)]
+#[repr(C, align(64))]
+struct CompactLine {
+    /// A plane's `f32` bits (inner node) or an index into the leaves (leaf).
+    value: [u32; 7],
+    /// Two bits per node: its axis, or 3 for a leaf.
+    kinds: u16,
+    _pad: u16,
+    /// The children of nodes 3 to 6: a line's index (its node 0), or `LEAF_TAG | leaf`.
+    child: [u32; 8],
+}
+
+/// The compact-subtree layout.
+pub(super) struct Compact {
+    lines: Vec<CompactLine>,
+    /// `(first reference, count)` of every leaf.
+    leaves: Vec<(u32, u32)>,
+}
+
+impl NodeStore for Compact {
+    #[inline(always)]
+    fn root(&self) -> u32 {
+        0
+    }
+
+    #[inline(always)]
+    fn visit(&self, r: u32) -> Visit {
+        let leaf = |i: u32| {
+            let (start, count) = self.leaves[i as usize];
+            Visit::Leaf {
+                start: start as usize,
+                count: count as usize,
+            }
+        };
+        if r & LEAF_TAG != 0 {
+            return leaf(r & !LEAF_TAG);
+        }
+        let (line, k) = (r >> 3, r & 7);
+        let l = &self.lines[line as usize];
+        let kind = (l.kinds >> (2 * k)) & 3;
+        let value = l.value[k as usize];
+        if kind == LEAF as u16 {
+            return leaf(value);
+        }
+        let (below, above) = if k < 3 {
+            (line << 3 | (2 * k + 1), line << 3 | (2 * k + 2))
+        } else {
+            let out = |c: u32| if c & LEAF_TAG != 0 { c } else { c << 3 };
+            let j = 2 * (k - 3) as usize;
+            (out(l.child[j]), out(l.child[j + 1]))
+        };
+        Visit::Inner {
+            axis: kind as usize,
+            split: f32::from_bits(value),
+            below,
+            above,
+        }
+    }
+}
+
+/// A laid-out tree.
+pub(super) enum Nodes {
+    Lines(Lines),
+    Scattered(Scattered),
+    Compact(Compact),
+}
+
+impl Nodes {
+    pub fn bytes(&self) -> usize {
+        match self {
+            Nodes::Lines(l) => l.lines.capacity() * std::mem::size_of::<Line>(),
+            Nodes::Scattered(s) => s.nodes.capacity() * std::mem::size_of::<LooseNode>(),
+            Nodes::Compact(c) => {
+                c.lines.capacity() * std::mem::size_of::<CompactLine>() + c.leaves.capacity() * 8
+            }
+        }
+    }
+
+    /// 64-byte lines the nodes take (rounded up for the scattered layout).
+    pub fn cache_lines(&self) -> usize {
+        match self {
+            Nodes::Lines(l) => l.lines.len(),
+            Nodes::Scattered(s) => (s.nodes.len() * std::mem::size_of::<LooseNode>()).div_ceil(64),
+            Nodes::Compact(c) => c.lines.len(),
+        }
+    }
+
+    /// Places the logical nodes (index 0 the root) in memory by `layout`.
+    pub fn lay_out(tree: &[Logical], layout: Layout) -> Nodes {
+        match layout {
+            Layout::Scattered => Nodes::Scattered(scattered(tree)),
+            Layout::Compact => Nodes::Compact(compact(tree)),
+            _ => Nodes::Lines(lines(tree, layout)),
+        }
+    }
+}
+
+fn children(tree: &[Logical], id: usize) -> Option<(usize, usize)> {
+    match tree[id] {
+        Logical::Inner { below, above, .. } => Some((below, above)),
+        Logical::Leaf { .. } => None,
+    }
+}
+
+fn kd_leaf(start: u32, count: u32) -> KdNode {
+    KdNode {
+        a: LEAF | count << 2,
+        b: start,
+    }
+}
+
+fn lines(tree: &[Logical], layout: Layout) -> Lines {
+    let n = tree.len();
+    let mut slot = vec![u32::MAX; n];
+    let mut next = 1u32;
+    slot[0] = 0;
+    match layout {
+        Layout::DepthFirst => {
+            let mut stack = vec![0usize];
+            next = 0;
+            while let Some(id) = stack.pop() {
+                slot[id] = next;
+                next += 1;
+                if let Some((b, a)) = children(tree, id) {
+                    stack.push(a);
+                    stack.push(b);
+                }
+            }
+        }
+        Layout::BreadthFirst => {
+            let mut queue = std::collections::VecDeque::from([0usize]);
+            while let Some(id) = queue.pop_front() {
+                if let Some((b, a)) = children(tree, id) {
+                    slot[b] = next;
+                    slot[a] = next + 1;
+                    next += 2;
+                    queue.push_back(b);
+                    queue.push_back(a);
+                }
+            }
+        }
+        _ => {
+            // Lines are filled from subtree roots; a pair that does not fit in the line of its
+            // parent starts a new line, whose subtree is laid out later.
+            let mut pending = std::collections::VecDeque::from([vec![0usize]]);
+            next = 0;
+            while let Some(roots) = pending.pop_front() {
+                let line_start = next.next_multiple_of(8);
+                next = line_start;
+                for &r in &roots {
+                    slot[r] = next;
+                    next += 1;
+                }
+                let mut queue: std::collections::VecDeque<usize> = roots.into();
+                while let Some(id) = queue.pop_front() {
+                    if let Some((b, a)) = children(tree, id) {
+                        if next + 2 <= line_start + 8 {
+                            slot[b] = next;
+                            slot[a] = next + 1;
+                            next += 2;
+                            queue.push_back(b);
+                            queue.push_back(a);
+                        } else {
+                            pending.push_back(vec![b, a]);
+                        }
+                    }
+                }
+            }
+        }
+    }
+    let pairs = layout != Layout::DepthFirst;
+    let total = slot.iter().map(|&s| s as usize + 1).max().unwrap_or(1);
+    let mut lines = vec![Line::default(); total.div_ceil(8)];
+    for (id, node) in tree.iter().enumerate() {
+        let s = slot[id] as usize;
+        lines[s / 8].0[s % 8] = match *node {
+            Logical::Leaf { start, count } => kd_leaf(start, count),
+            Logical::Inner {
+                axis,
+                split,
+                below,
+                above,
+            } => KdNode {
+                a: axis | if pairs { slot[below] } else { slot[above] } << 2,
+                b: split.to_bits(),
+            },
+        };
+    }
+    Lines { lines, pairs }
+}
+
+fn scattered(tree: &[Logical]) -> Scattered {
+    use rand::{SeedableRng, seq::SliceRandom};
+    let mut slot: Vec<u32> = (0..tree.len() as u32).collect();
+    slot.shuffle(&mut rand_pcg::Pcg64Mcg::seed_from_u64(7));
+    let mut nodes = vec![LooseNode::default(); tree.len()];
+    for (id, node) in tree.iter().enumerate() {
+        nodes[slot[id] as usize] = match *node {
+            Logical::Leaf { start, count } => LooseNode {
+                node: kd_leaf(start, count),
+                above: 0,
+            },
+            Logical::Inner {
+                axis,
+                split,
+                below,
+                above,
+            } => LooseNode {
+                node: KdNode {
+                    a: axis | slot[below] << 2,
+                    b: split.to_bits(),
+                },
+                above: slot[above],
+            },
+        };
+    }
+    Scattered {
+        nodes,
+        root: slot.first().copied().unwrap_or(0),
+    }
+}
+
+fn compact(tree: &[Logical]) -> Compact {
+    let mut lines: Vec<CompactLine> = Vec::new();
+    let mut leaves: Vec<(u32, u32)> = Vec::new();
+    // Subtree roots waiting for their line, in the order their lines were numbered.
+    let mut pending = std::collections::VecDeque::from([0usize]);
+    let mut numbered = 1u32;
+    while let Some(root) = pending.pop_front() {
+        let mut line = CompactLine::default();
+        let mut slot = [usize::MAX; 7];
+        slot[0] = root;
+        for k in 0..7 {
+            let id = slot[k];
+            if id == usize::MAX {
+                continue;
+            }
+            match tree[id] {
+                Logical::Leaf { start, count } => {
+                    line.kinds |= (LEAF as u16) << (2 * k);
+                    line.value[k] = leaves.len() as u32;
+                    leaves.push((start, count));
+                }
+                Logical::Inner {
+                    axis,
+                    split,
+                    below,
+                    above,
+                } => {
+                    line.kinds |= (axis as u16) << (2 * k);
+                    line.value[k] = split.to_bits();
+                    if k < 3 {
+                        slot[2 * k + 1] = below;
+                        slot[2 * k + 2] = above;
+                    } else {
+                        for (j, c) in [below, above].into_iter().enumerate() {
+                            line.child[2 * (k - 3) + j] = match tree[c] {
+                                Logical::Leaf { start, count } => {
+                                    leaves.push((start, count));
+                                    LEAF_TAG | (leaves.len() as u32 - 1)
+                                }
+                                Logical::Inner { .. } => {
+                                    pending.push_back(c);
+                                    numbered += 1;
+                                    numbered - 1
+                                }
+                            };
+                        }
+                    }
+                }
+            }
+        }
+        lines.push(line);
+    }
+    debug_assert_eq!(lines.len() as u32, numbered);
+    Compact { lines, leaves }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A complete tree of `depth` levels of inner nodes over leaves numbered left to right.
+    fn complete(depth: u32) -> Vec<Logical> {
+        fn add(out: &mut Vec<Logical>, depth: u32, leaf: &mut u32) -> usize {
+            let id = out.len();
+            if depth == 0 {
+                out.push(Logical::Leaf {
+                    start: *leaf,
+                    count: 1,
+                });
+                *leaf += 1;
+                return id;
+            }
+            out.push(Logical::Leaf { start: 0, count: 0 });
+            let below = add(out, depth - 1, leaf);
+            let above = add(out, depth - 1, leaf);
+            out[id] = Logical::Inner {
+                axis: depth % 3,
+                split: depth as f32,
+                below,
+                above,
+            };
+            id
+        }
+        let mut out = Vec::new();
+        add(&mut out, depth, &mut 0);
+        out
+    }
+
+    /// The leaves in order, by walking below-first from the root.
+    fn leaves_in_order<N: NodeStore>(n: &N) -> Vec<usize> {
+        let mut out = Vec::new();
+        let mut stack = vec![n.root()];
+        while let Some(r) = stack.pop() {
+            match n.visit(r) {
+                Visit::Leaf { start, .. } => out.push(start),
+                Visit::Inner { below, above, .. } => {
+                    stack.push(above);
+                    stack.push(below);
+                }
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn every_layout_holds_the_same_tree() {
+        for depth in [0, 1, 2, 3, 4, 7] {
+            let tree = complete(depth);
+            let want: Vec<usize> = (0..1usize << depth).collect();
+            for name in Layout::NAMES {
+                let got = match Nodes::lay_out(&tree, Layout::from_name(name)) {
+                    Nodes::Lines(l) => leaves_in_order(&l),
+                    Nodes::Scattered(s) => leaves_in_order(&s),
+                    Nodes::Compact(c) => leaves_in_order(&c),
+                };
+                assert_eq!(got, want, "{name}, depth {depth}");
+            }
+        }
+    }
+
+    #[test]
+    fn compact_subtrees_fill_lines_of_seven_nodes() {
+        // 2^7 − 1 inner nodes: the root's line holds 7, then 8 lines of subtrees of 7 each
+        // under it, then leaves as references from the last lines.
+        let tree = complete(6);
+        let Nodes::Compact(c) = Nodes::lay_out(&tree, Layout::Compact) else {
+            unreachable!()
+        };
+        assert_eq!(std::mem::size_of::<CompactLine>(), 64);
+        assert_eq!(c.lines.len(), 9);
+        assert_eq!(c.leaves.len(), 64);
+    }
+
+    #[test]
+    fn scattered_nodes_are_not_in_build_order() {
+        let tree = complete(6);
+        let Nodes::Scattered(s) = Nodes::lay_out(&tree, Layout::Scattered) else {
+            unreachable!()
+        };
+        // The root's children, adjacent in every other layout, lie apart.
+        let Visit::Inner { below, above, .. } = s.visit(s.root) else {
+            unreachable!()
+        };
+        assert_ne!(below.abs_diff(above), 1);
+    }
+}
