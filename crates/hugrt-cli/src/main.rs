@@ -410,6 +410,7 @@ fn run(cli: Cli) -> Result<()> {
                     "scene_memory_bytes": scene.memory_bytes(),
                     "structure": st.entries.iter().map(|(k, v)| (k.clone(), serde_json::json!(v))).collect::<serde_json::Map<_, _>>(),
                     "levels": st.levels,
+                    "depths": st.depths,
                 });
                 say!("{}", serde_json::to_string_pretty(&j)?);
             } else {

@@ -191,7 +191,9 @@ fn stats_json_reports_scene_and_structure() {
     let o = hugrt(&["stats", "builtin:kitchen:1"]);
     let text = String::from_utf8_lossy(&o.stdout);
     assert!(
-        text.contains("per level") && text.contains("σo'_v"),
+        text.contains("per filter level")
+            && text.contains("per nesting depth")
+            && text.contains("σo'_v"),
         "{text}"
     );
 }

@@ -1152,7 +1152,7 @@ impl Accel for Bvh {
             self.store.len(),
         );
         s.census = CellCensus {
-            cells: self.nodes.len() + leaves,
+            cells: leaves,
             full_cells: leaves,
             object_refs: self.filled,
             full_volume: self.stats.leaf_volume,
