@@ -23,7 +23,7 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::path::PathBuf;
 use std::time::Instant;
 
-const ACCEL_HELP: &str = "Spatial structure: NAME[:KEY=VALUE,...], e.g. hug, hug:filter=levels,world=2n, grid:density=20, brute";
+const ACCEL_HELP: &str = "Spatial structure: NAME[:KEY=VALUE,...], e.g. hug, hug:preset=eg95 (the paper's algorithm; also hug:preset=scg97, rgrid:preset=eg95, octree:preset=eg95, kdtree:preset=havran), grid:density=20, brute";
 
 #[derive(Parser)]
 #[command(

@@ -221,6 +221,11 @@ fn more_than_maxp_coplanar_triangles_through_one_point_grow_up_to_the_budget() {
         levels == 1.0 && refs <= 8.0 * 200.0,
         "guarded: {levels} levels, {refs} references"
     );
+    // The cells round the point never separate, and every triangle's box covers each of
+    // them: the recursive grid's second level would hold 200³ references, so the budget, not
+    // a rule, stops it, and says so.
+    let rgrid = AnyAccel::build(&s, "rgrid:depth=3").unwrap();
+    assert!(stat(&rgrid, "left_uncut_by_budget") > 0.0);
     for spec in ["octree:depth=16", "rgrid:preset=eg95"] {
         let a = AnyAccel::build(&s, spec).unwrap();
         let (levels, refs) = (stat(&a, "depth"), stat(&a, "references"));

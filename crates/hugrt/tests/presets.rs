@@ -178,6 +178,16 @@ fn a_crowded_cell_is_cut_down_to_the_depth_limit() {
             assert_eq!(stat(&stats(&s, guarded), "depth"), 1.0, "{guarded}");
         }
     }
+    // With a shallower limit the cutting stops there, the speck's cells still crowded.
+    for (spec, limit) in [("rgrid:depth=1", 1), ("octree:depth=6", 6)] {
+        let st = stats(&s, spec);
+        assert_eq!(st.levels.len(), limit + 1, "{spec}");
+        assert!(
+            st.levels[limit].max_o_v > 50,
+            "{spec}: {:?}",
+            st.levels[limit]
+        );
+    }
     let specs: Vec<String> = ["rgrid", "rgrid:preset=eg95", "octree", "octree:guard=true"]
         .map(String::from)
         .to_vec();

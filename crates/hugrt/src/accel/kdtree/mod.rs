@@ -78,7 +78,10 @@ pub struct KdTree {
     /// Nodes in the tree (a layout may hold unused slots).
     node_count: usize,
     layout: Layout,
+    /// The leaves' references (for the compact layout, each leaf's count before them).
     refs: Vec<u32>,
+    /// Object references from the leaves (Havran's `N_RO`).
+    references: usize,
     store: PrimStore,
     bounds: Aabb,
     rule: SplitRule,
@@ -440,7 +443,7 @@ impl KdTree {
         loop {
             if tn <= near.t {
                 counters.cell_visit(0);
-                let (start, count) = match nodes.visit(node) {
+                let (start, count) = match nodes.visit(node, &self.refs) {
                     Visit::Leaf { start, count } => (start, count),
                     Visit::Inner {
                         axis,
@@ -602,6 +605,7 @@ impl Accel for KdTree {
             node_count: 0,
             layout,
             refs: Vec::new(),
+            references: 0,
             store,
             bounds,
             rule,
@@ -609,7 +613,13 @@ impl Accel for KdTree {
         };
         let mut logical = Vec::new();
         tree.flatten(root, bounds, 0, &mut logical);
-        tree.nodes = Nodes::lay_out(&logical, layout);
+        tree.references = tree.refs.len();
+        tree.nodes = Nodes::lay_out(&logical, layout, &mut tree.refs).ok_or_else(|| {
+            SpecError::Build(format!(
+                "{} references: the compact layout holds at most 2^31-2",
+                tree.references
+            ))
+        })?;
         tree.node_count = logical.len();
         tree.refs.shrink_to_fit();
         Ok(tree)
@@ -657,8 +667,8 @@ impl Accel for KdTree {
             "mean_leaf_depth",
             t.depth_sum as f64 / t.leaves.max(1) as f64,
         );
-        s.push("references", self.refs.len() as f64);
-        s.push("references_per_object", self.refs.len() as f64 / n);
+        s.push("references", self.references as f64);
+        s.push("references_per_object", self.references as f64 / n);
         s.push_memory(
             self.structure_bytes(),
             self.memory_bytes(),
@@ -667,7 +677,7 @@ impl Accel for KdTree {
         s.census = CellCensus {
             cells: t.leaves,
             full_cells: t.leaves - t.empty_leaves,
-            object_refs: self.refs.len(),
+            object_refs: self.references,
             full_volume: t.full_volume,
         };
         s
