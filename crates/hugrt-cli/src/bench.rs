@@ -112,6 +112,15 @@ pub fn run(o: Options) -> Result<()> {
     Ok(())
 }
 
+/// What the table's columns mean (Havran Tables 1–3, eq. 5–6; SCG97 §3).
+const SEPTET_LEGEND: &str =
+    "N_C: elementary cells (grid cells that are not inner cells, a tree's leaves); R_ETNC: the
+share of them holding no object; N_ADC: references per object less one; N_AOIFC: references
+per cell holding any; R_FVWV: volume of those cells over the scene's; N_RPRT: ray-object tests
+per hit; N_AT: cells and nodes visited per ray; T_TT/T_TR: the share of the render time spent
+in the structure; #pit, #pi, #bbi, #vt: ray-object tests, hits, ray-box tests and cells visited
+per ray (SCG97 3).";
+
 fn print_table(rows: &[BenchRow]) -> Result<()> {
     say!(
         "| scene | prims | structure | build ms (min–max) | trace ms (min–max) | Mrays/s | B/prim | N_C | R_ETNC | N_ADC | N_AOIFC | R_FVWV | N_RPRT | N_AT | T_TT/T_TR | #pit #pi #bbi #vt per ray | differ |"
@@ -153,6 +162,8 @@ fn print_table(rows: &[BenchRow]) -> Result<()> {
             r.compared,
         );
     }
+    say!();
+    say!("{SEPTET_LEGEND}");
     let deep: Vec<&BenchRow> = rows.iter().filter(|r| r.per_ray_levels.len() > 1).collect();
     if !deep.is_empty() {
         say!();
