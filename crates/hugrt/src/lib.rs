@@ -7,7 +7,7 @@
 //! * [`render`]: the Whitted renderer of the SPD test procedure.
 //! * [`stats`]: scene statistics (SCG97 Fig. 4).
 //! * [`batch`]: batch ray queries in the `hugrt trace` file format.
-//! * [`bench`]: structures measured on the same work: times, Havran's septet and triplet,
+//! * [`mod@bench`]: structures measured on the same work: times, Havran's septet and triplet,
 //!   counters, and the same-answers check.
 
 pub mod accel;

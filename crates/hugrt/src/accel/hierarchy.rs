@@ -1307,10 +1307,10 @@ impl GridHierarchy {
     }
 }
 
-/// Which levels [`GridHierarchy::level_stats`] groups grids by.
+/// Which levels the statistics of a grid hierarchy group its grids by.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum LevelView {
-    /// [`GridPlan::level`]: a HUG's filter levels (SCG97's tables), the depth elsewhere.
+    /// The grids' levels: a HUG's filter levels (SCG97's tables), the depth elsewhere.
     Level,
     /// Nesting depth: which grids lie inside how many others.
     Depth,
@@ -1354,7 +1354,7 @@ impl Moments {
 /// numbers levels from the smallest objects up).
 ///
 /// * Resource repartition: `pct_obj`, `pct_grids`, `pct_voxels`, `pct_ptrs` are the level's
-///   shares of objects stored (each object once, [`GridHierarchy::level_stats`]), grids,
+///   shares of objects stored (each object once, at the level that stores it), grids,
 ///   cells and references (to objects and to grids); `pct_vol` the summed volume of its grids
 ///   as built (their boxes with the margin and any shifted planes) over the root's (over 100%
 ///   in total as soon as two levels are used; SCG97 §7.1 reads a sum far above, say 120%, as

@@ -6,7 +6,7 @@
 //! no virtual call per primitive, and counting costs nothing when [`NoCounters`] is used.
 //!
 //! Structures are chosen at run time by a spec string `name[:key=value,...]` ([`Spec`]).
-//! [`AnyAccel`] holds one of them; the list in [`structures!`] below is the single place that
+//! [`AnyAccel`] holds one of them; the list in `structures!` below is the single place that
 //! names them all, and the tests, the CLI and the benchmarks iterate it. Adding a structure is
 //! one module and one line there.
 
@@ -111,7 +111,7 @@ pub struct StructureStats {
 }
 
 /// What a structure's cells hold: the static half of Havran's septet (Havran §4.1, Table 2),
-/// from which [`crate::bench`] derives `N_C`, `R_ETNC`, `N_ADC`, `N_AOIFC` and `R_FVWV`.
+/// from which [`mod@crate::bench`] derives `N_C`, `R_ETNC`, `N_ADC`, `N_AOIFC` and `R_FVWV`.
 /// Cells are Havran's elementary cells: the cells of every grid that are not inner cells of
 /// the hierarchy, or a tree's leaves (Havran's `R_ETNC` is over them: his Tables 5–6 give
 /// 11–32%); brute force is one cell holding everything.

@@ -96,7 +96,7 @@ impl Aabb {
     }
 
     /// Slab test: the parameter interval where the ray is inside the box, clipped to
-    /// `[tmin, tmax]`, or `None`. Conservative under rounding (see [`ROBUST_FAR`]); a ray lying
+    /// `[tmin, tmax]`, or `None`. Conservative under rounding (see `ROBUST_FAR`); a ray lying
     /// in a face plane with a zero direction component counts as inside on that axis.
     #[inline]
     pub fn intersect(&self, r: &PreparedRay, tmin: f32, tmax: f32) -> Option<(f32, f32)> {

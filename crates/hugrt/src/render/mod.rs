@@ -11,7 +11,7 @@
 //! double-sided; other scenes do not show their back faces). Transmitters cast full shadows.
 //!
 //! Shadows are hard by default; [`render_soft`] softens them with one shadow ray per light
-//! ([`soft`]).
+//! (`render::soft`).
 //!
 //! The image does not depend on the number of threads: every corner is computed on its own
 //! and counts are sums of integers.
@@ -158,7 +158,7 @@ pub fn render_recorded(
 /// Renders again from a [`Recording`] made with the same scene and settings, every query
 /// answered from the record: everything a rendering does except asking the structure. Its
 /// time, subtracted from the rendering's, is the time spent in the structure (Havran's
-/// `T_TT`, see [`crate::bench`]).
+/// `T_TT`, see [`mod@crate::bench`]).
 ///
 /// # Panics
 /// When the recording was made with other settings or another scene (it runs out).

@@ -12,14 +12,24 @@
 //! 4. **inserting** each cluster's grid, largest levels first, into the cells of the deepest
 //!    grid that contains it, like an object (EG95 §2.3.1).
 //!
-//! The result is a [`GridHierarchy`]; its walk carries one ray state (nearest hit, mailboxes
+//! The result is a hierarchy of grids (`GridHierarchy`); its walk carries one ray state (nearest hit, mailboxes
 //! for objects and for grids referenced from several cells) through every level (EG95
 //! §2.3.2), and is the same code as the uniform grid's.
 //!
+//! # The papers' presets and hugrt's departures
+//! `preset=eg95` and `preset=scg97` ([`EG95`], [`SCG97`]) are the papers' algorithms, each
+//! setting cited. hugrt's defaults ([`DEFAULTS`]) depart from them where that measured better,
+//! each departure a key: the graph clustering with δ = 0.5·(the level's mean length) and
+//! crowded cells joined untested (`alpha`, `crowd`), finer grids (`world`, `density`), cells
+//! as cubical as possible (`cells`), shifted planes (`shift`), pruning of large objects
+//! (`prune`), grids referenced only below the deepest grid containing them (`insert`), and
+//! small and loose clusters given back (`giveback`, below).
+//!
 //! # Small and loose clusters
 //! SCG97 §7.5 leaves open what to do with tiny clusters ("is a cluster of 5 polygons still a
-//! cluster?"), and §7.1 diagnoses loose ones by their volume. hugrt gives both back to the
-//! grid they would have been inserted into, whose objects they become: a cluster of fewer than
+//! cluster?"), and §7.1 diagnoses loose ones by their volume. hugrt (`giveback=true`, the
+//! default; the presets grid every cluster) gives both back to the grid they would have been
+//! inserted into, whose objects they become: a cluster of fewer than
 //! `min_cluster` objects, and a cluster whose box fills more than `loose` of that grid's
 //! volume. On a scene without clusters (a scanned mesh) every level's single cluster is
 //! loose, and the HUG becomes the uniform grid it should be; with one huge object among many
