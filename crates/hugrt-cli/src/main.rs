@@ -65,6 +65,9 @@ enum Command {
         /// No progress bar.
         #[arg(short, long)]
         quiet: bool,
+        /// Render a scene with no primitives (a blank image) rather than fail.
+        #[arg(long)]
+        allow_empty: bool,
     },
     /// Batch ray queries: read a rays file, write a hits file (the embree-peer format).
     ///
@@ -143,10 +146,10 @@ enum Command {
         #[arg(long, value_enum, default_value_t = RayKind::Whitted)]
         rays: RayKind,
         /// Incoherent rays per run.
-        #[arg(long, default_value_t = 1_000_000)]
-        ray_count: usize,
+        #[arg(long, default_value_t = 1_000_000, value_parser = clap::value_parser!(u64).range(1..=1_000_000_000))]
+        ray_count: u64,
         /// Camera rays: image side (side² rays).
-        #[arg(long, default_value_t = 1024)]
+        #[arg(long, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(1..=65536))]
         camera: u32,
         /// The Whitted rendering's image.
         #[command(flatten)]
@@ -155,8 +158,8 @@ enum Command {
         #[arg(long)]
         threads: Option<usize>,
         /// Runs per timing (the median is reported, with the extremes).
-        #[arg(long, default_value_t = 3)]
-        repeat: usize,
+        #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=1000))]
+        repeat: u32,
         /// Write the rows, per-level counters included, as JSON.
         #[arg(long)]
         json: Option<PathBuf>,
@@ -173,13 +176,13 @@ enum Command {
 #[derive(clap::Args, Clone, Copy)]
 struct ImageArgs {
     /// Image width (default: the scene's resolution).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..=65536))]
     width: Option<u32>,
     /// Image height (default: the scene's resolution).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..=65536))]
     height: Option<u32>,
-    /// Bounces after the eye ray (SPD: 4).
-    #[arg(long, default_value_t = 4)]
+    /// Bounces after the eye ray (SPD: 4), at most 64.
+    #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u32).range(0..=hugrt::render::MAX_BOUNCES as i64))]
     depth: u32,
     /// Single-sample soft shadows (Parker, Shirley, Smits) from spherical lights of this
     /// radius, as a fraction of the scene's diagonal (0.002 when given without a value).
@@ -265,15 +268,55 @@ fn build(scene: &Scene, spec: &str) -> Result<(AnyAccel, f64)> {
     Ok((accel, t.elapsed().as_secs_f64()))
 }
 
+/// The most worker threads `--threads` accepts: beyond the cores there is nothing to gain,
+/// and creating tens of thousands of threads takes minutes.
+const MAX_THREADS: usize = 1024;
+
 fn pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
     let mut b = rayon::ThreadPoolBuilder::new();
     if let Some(n) = threads {
-        if n == 0 {
-            bail!("--threads must be at least 1");
+        if !(1..=MAX_THREADS).contains(&n) {
+            bail!("--threads {n}: must be between 1 and {MAX_THREADS}");
         }
         b = b.num_threads(n);
     }
     Ok(b.build()?)
+}
+
+/// Checks a spec before any work: building it over no primitives parses and checks every key
+/// and value at no cost.
+fn check_spec(spec: &str) -> Result<()> {
+    AnyAccel::build(&Scene::from_triangles(Vec::new()), spec)
+        .map(drop)
+        .with_context(|| format!("--accel {spec}"))
+}
+
+/// Fails for a scene with nothing to hit, unless asked to go on.
+fn check_not_empty(name: &str, scene: &Scene, allow_empty: bool) -> Result<()> {
+    if scene.shapes.is_empty() && !allow_empty {
+        bail!("{name}: no primitives (--allow-empty renders it anyway)");
+    }
+    Ok(())
+}
+
+/// Checks that an image can be written where asked, before rendering it.
+fn check_image_path(path: &std::path::Path) -> Result<()> {
+    if path.is_dir() {
+        bail!(
+            "-o {}: is a directory; give a file name ending in .png",
+            path.display()
+        );
+    }
+    if !path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("png"))
+    {
+        bail!(
+            "-o {}: hugrt writes PNG images; give a name ending in .png",
+            path.display()
+        );
+    }
+    Ok(())
 }
 
 fn run(cli: Cli) -> Result<()> {
@@ -287,12 +330,16 @@ fn run(cli: Cli) -> Result<()> {
             stats_json,
             counters,
             quiet,
+            allow_empty,
         } => {
             image.check()?;
+            check_spec(&accel)?;
+            check_image_path(&output)?;
             let name = scene.unwrap_or_else(|| "builtin:kitchen".to_string());
             pool(threads)?.install(|| {
                 let t = Instant::now();
                 let scene = load_scene(&name)?;
+                check_not_empty(&name, &scene, allow_empty)?;
                 let load_s = t.elapsed().as_secs_f64();
                 let (acc, mut build_s) = build(&scene, &accel)?;
                 let soft = match image.soft_shadows {
@@ -324,7 +371,8 @@ fn run(cli: Cli) -> Result<()> {
                 bar.finish_and_clear();
                 out.image.save(&output).with_context(|| format!("writing {}", output.display()))?;
                 let c = out.counts;
-                say!("scene {name}: {} primitives, {} lights; structure {} ({})", scene.shapes.len(), scene.lights.len(), acc.name(), accel);
+                let lights = scene.lights.len();
+                say!("scene {name}: {} primitives, {lights} light{}; structure {} ({})", scene.shapes.len(), if lights == 1 { "" } else { "s" }, acc.name(), accel);
                 say!("load {load_s:.3} s, build {build_s:.3} s, render {render_s:.3} s ({:.2} Mrays/s)", c.total_rays() as f64 / render_s / 1e6);
                 say!("eye rays {} (hit {}), shadow rays {} (blocked {}, in a penumbra {}), reflected {}, refracted {}, secondary hits {}",
                     c.eye_rays, c.eye_hits, c.shadow_rays, c.shadow_hits, c.penumbra_rays, c.reflected_rays, c.refracted_rays, c.secondary_hits);
@@ -363,43 +411,47 @@ fn run(cli: Cli) -> Result<()> {
             threads,
             repeat,
             counters,
-        } => pool(threads)?.install(|| {
-            let scene = load_scene(&scene)?;
-            let bytes =
-                std::fs::read(&rays).with_context(|| format!("reading {}", rays.display()))?;
-            let ray_list =
-                hugrt::batch::decode_rays(&bytes).with_context(|| rays.display().to_string())?;
-            let (acc, build_s) = build(&scene, &accel)?;
-            let mut times = Vec::new();
-            let mut result = vec![None; ray_list.len()];
-            for _ in 0..repeat {
-                let t = Instant::now();
-                hugrt::batch::trace_into(&scene, &acc, &ray_list, any_hit, &mut result);
-                times.push(t.elapsed().as_secs_f64());
-            }
-            let trace_s = bench::median(times);
-            std::fs::write(&hits, hugrt::batch::encode_hits(&result))
-                .with_context(|| format!("writing {}", hits.display()))?;
-            let hit_count = result.iter().filter(|h| h.is_some()).count();
-            eprintln!(
-                "build {:.1} ms, trace {:.1} ms, {} rays, {} hits, {:.2} Mrays/s",
-                build_s * 1e3,
-                trace_s * 1e3,
-                ray_list.len(),
-                hit_count,
-                ray_list.len() as f64 / trace_s.max(1e-9) / 1e6
-            );
-            if counters {
-                let c = hugrt::batch::count(&scene, &acc, &ray_list, any_hit);
-                print_counters(&c, ray_list.len() as u64)?;
-            }
-            Ok(())
-        }),
+        } => {
+            check_spec(&accel)?;
+            pool(threads)?.install(|| {
+                let scene = load_scene(&scene)?;
+                let bytes =
+                    std::fs::read(&rays).with_context(|| format!("reading {}", rays.display()))?;
+                let ray_list = hugrt::batch::decode_rays(&bytes)
+                    .with_context(|| rays.display().to_string())?;
+                let (acc, build_s) = build(&scene, &accel)?;
+                let mut times = Vec::new();
+                let mut result = vec![None; ray_list.len()];
+                for _ in 0..repeat {
+                    let t = Instant::now();
+                    hugrt::batch::trace_into(&scene, &acc, &ray_list, any_hit, &mut result);
+                    times.push(t.elapsed().as_secs_f64());
+                }
+                let trace_s = bench::median(times);
+                std::fs::write(&hits, hugrt::batch::encode_hits(&result))
+                    .with_context(|| format!("writing {}", hits.display()))?;
+                let hit_count = result.iter().filter(|h| h.is_some()).count();
+                say!(
+                    "build {:.1} ms, trace {:.1} ms, {} rays, {} hits, {:.2} Mrays/s",
+                    build_s * 1e3,
+                    trace_s * 1e3,
+                    ray_list.len(),
+                    hit_count,
+                    ray_list.len() as f64 / trace_s.max(1e-9) / 1e6
+                );
+                if counters {
+                    let c = hugrt::batch::count(&scene, &acc, &ray_list, any_hit);
+                    print_counters(&c, ray_list.len() as u64)?;
+                }
+                Ok(())
+            })
+        }
         Command::Stats {
             scene: name,
             accel,
             json,
         } => {
+            check_spec(&accel)?;
             let scene = load_scene(&name)?;
             let s = hugrt::stats::scene_stats(&scene);
             let (acc, build_s) = build(&scene, &accel)?;
@@ -479,10 +531,14 @@ fn run(cli: Cli) -> Result<()> {
                 );
             }
             image.check()?;
-            check_side(camera)?;
+            for a in &accels {
+                check_spec(a)?;
+            }
             let workload = match rays {
                 RayKind::Camera => Workload::Camera { side: camera },
-                RayKind::Incoherent => Workload::Incoherent { rays: ray_count },
+                RayKind::Incoherent => Workload::Incoherent {
+                    rays: ray_count as usize,
+                },
                 RayKind::Whitted => Workload::Whitted {
                     width: image.width,
                     height: image.height,
@@ -495,7 +551,7 @@ fn run(cli: Cli) -> Result<()> {
                     scenes,
                     accels,
                     workload,
-                    repeat: repeat.max(1),
+                    repeat: repeat as usize,
                     json,
                     csv,
                     quiet,

@@ -10,6 +10,10 @@ fn hugrt(args: &[&str]) -> Output {
         .expect("hugrt runs")
 }
 
+fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
 fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
@@ -115,7 +119,7 @@ fn trace_writes_the_embree_peer_hits_format() {
         }
         let o = hugrt(&args);
         assert!(o.status.success(), "{}", stderr(&o));
-        assert!(stderr(&o).contains("Mrays/s"), "{}", stderr(&o));
+        assert!(stdout(&o).contains("Mrays/s"), "{}", stdout(&o));
         results.push(read_hits(&hits));
     }
     let closest = &results[0];
@@ -141,6 +145,10 @@ fn errors_exit_nonzero_with_a_reason() {
     let short = dir.path().join("short.rays");
     std::fs::write(&short, [0u8; 33]).unwrap();
     let hits = dir.path().join("h.hits");
+    let dir_name = dir.path().to_str().unwrap();
+    let empty = dir.path().join("empty.obj");
+    std::fs::write(&empty, "# nothing\n").unwrap();
+    let empty = empty.to_str().unwrap();
     let cases: Vec<(Vec<&str>, &str)> = vec![
         (vec!["stats", bad], "bad.nff:2: sphere: coordinate is NaN"),
         (vec!["render", bad, "--quiet"], "bad.nff:2:"),
@@ -160,7 +168,24 @@ fn errors_exit_nonzero_with_a_reason() {
             "33",
         ),
         (vec!["render", "builtin:room:0", "--quiet"], "builtin:room"),
-        (vec!["render", fx, "--width", "0", "--quiet"], "image size"),
+        (
+            vec!["render", fx, "--threads", "10000", "--quiet"],
+            "between 1 and 1024",
+        ),
+        (
+            vec!["render", fx, "-o", dir_name, "--quiet"],
+            "is a directory",
+        ),
+        (vec!["render", fx, "-o", "x.jpg", "--quiet"], "PNG"),
+        (vec!["render", empty, "--quiet"], "no primitives"),
+        (
+            vec!["bench", "/nonexistent.ply", "--accel", "grid:dens=3"],
+            "density",
+        ),
+        (
+            vec!["stats", fx, "--accel", "grid:x"],
+            "--accel grid:x: malformed spec: 'x'",
+        ),
     ];
     for (args, want) in cases {
         let o = hugrt(&args);
@@ -172,6 +197,35 @@ fn errors_exit_nonzero_with_a_reason() {
         );
         assert!(!e.contains("panicked"), "{args:?}: {e}");
     }
+    // Values out of range are refused by the argument parser, before any work.
+    for (args, want) in [
+        (
+            vec!["render", fx, "--width", "-5"],
+            "-5 is not in 1..=65536",
+        ),
+        (vec!["render", fx, "--width", "0"], "0 is not in 1..=65536"),
+        (
+            vec!["render", fx, "--depth", "5000"],
+            "5000 is not in 0..=64",
+        ),
+        (vec!["bench", fx, "--repeat", "0"], "0 is not in 1..=1000"),
+        (vec!["bench", fx, "--ray-count", "0"], "0 is not in"),
+    ] {
+        let o = hugrt(&args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(want), "{args:?}: {}", stderr(&o));
+    }
+    // An empty scene renders when asked to.
+    let out = dir.path().join("e.png");
+    let o = hugrt(&[
+        "render",
+        empty,
+        "--allow-empty",
+        "--quiet",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
 }
 
 #[test]
@@ -375,7 +429,7 @@ fn bench_rejects_a_bad_image_side() {
         let o = hugrt(&a);
         assert!(!o.status.success(), "{args:?}");
         assert!(
-            stderr(&o).contains("not within 1..=65536"),
+            stderr(&o).contains("is not in 1..=65536"),
             "{args:?}: {}",
             stderr(&o)
         );

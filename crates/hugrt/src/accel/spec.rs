@@ -12,7 +12,7 @@ pub enum SpecError {
         key: String,
         valid: String,
     },
-    #[error("malformed spec '{spec}': {reason}")]
+    #[error("malformed spec: {reason}")]
     Malformed { spec: String, reason: String },
     #[error("bad value '{value}' for key '{key}': {reason}")]
     BadValue {

@@ -26,11 +26,15 @@ use crate::scene::Scene;
 use rayon::prelude::*;
 use serde::Serialize;
 
+/// The most bounces a rendering follows: each is a level of recursion on a worker thread's
+/// stack, and past a few dozen a ray's contribution is below an 8-bit pixel's step anyway.
+pub const MAX_BOUNCES: u32 = 64;
+
 #[derive(Clone, Copy, Debug)]
 pub struct RenderSettings {
     pub width: u32,
     pub height: u32,
-    /// Bounces after the eye ray (SPD: 4).
+    /// Bounces after the eye ray (SPD: 4); at most [`MAX_BOUNCES`] are followed.
     pub depth: u32,
     /// Gather #pit/#pi/#bbi/#vt per level (slower).
     pub counters: bool,
@@ -328,7 +332,7 @@ fn render_with<C: Summable, Q: Queries>(
             let mut t = Tracer {
                 scene,
                 queries: queries(j as usize),
-                max_depth: s.depth + 1,
+                max_depth: s.depth.min(MAX_BOUNCES) + 1,
                 offset_scale,
                 counts: RayCounts::default(),
                 counters: C::default(),
