@@ -87,6 +87,10 @@ enum Command {
         /// Occlusion queries: t = 1.0 and index 0 when anything is hit.
         #[arg(long)]
         any_hit: bool,
+        /// basic: t and primitive (8 bytes a ray, embree-peer's); full: also the barycentric
+        /// u, v and the unit geometric normal (28 bytes: f32 t, u32 primitive, f32 u v nx ny nz).
+        #[arg(long, value_enum, default_value_t = HitFormat::Basic)]
+        hit_format: HitFormat,
         /// Worker threads (default: all cores).
         #[arg(long)]
         threads: Option<usize>,
@@ -213,6 +217,13 @@ fn check_side(side: u32) -> Result<()> {
         bail!("image size: a side of {side} is not within 1..=65536");
     }
     Ok(())
+}
+
+/// What `hugrt trace` writes per ray.
+#[derive(Clone, Copy, Debug, PartialEq, clap::ValueEnum)]
+enum HitFormat {
+    Basic,
+    Full,
 }
 
 /// The work `hugrt bench` measures.
@@ -408,11 +419,17 @@ fn run(cli: Cli) -> Result<()> {
             hits,
             accel,
             any_hit,
+            hit_format,
             threads,
             repeat,
             counters,
         } => {
             check_spec(&accel)?;
+            if any_hit && hit_format == HitFormat::Full {
+                bail!(
+                    "--hit-format full describes closest hits; an --any-hit answer has no point to describe"
+                );
+            }
             pool(threads)?.install(|| {
                 let scene = load_scene(&scene)?;
                 let bytes =
@@ -428,7 +445,11 @@ fn run(cli: Cli) -> Result<()> {
                     times.push(t.elapsed().as_secs_f64());
                 }
                 let trace_s = bench::median(times);
-                std::fs::write(&hits, hugrt::batch::encode_hits(&result))
+                let encoded = match hit_format {
+                    HitFormat::Basic => hugrt::batch::encode_hits(&result),
+                    HitFormat::Full => hugrt::batch::encode_full_hits(&scene, &ray_list, &result),
+                };
+                std::fs::write(&hits, encoded)
                     .with_context(|| format!("writing {}", hits.display()))?;
                 let hit_count = result.iter().filter(|h| h.is_some()).count();
                 say!(

@@ -132,6 +132,47 @@ fn trace_writes_the_embree_peer_hits_format() {
     let any = &results[2];
     assert_eq!(any[2], (1.0, 0));
     assert_eq!(any[1], (inf, u32::MAX));
+    // The full format: the same t and primitive, then u, v and the normal.
+    let full = dir.path().join("full.hits");
+    let o = hugrt(&[
+        "trace",
+        &fx,
+        "--rays",
+        rays.to_str().unwrap(),
+        "--hits",
+        full.to_str().unwrap(),
+        "--hit-format",
+        "full",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let bytes = std::fs::read(&full).unwrap();
+    assert_eq!(bytes.len(), 28 * closest.len());
+    let f = |r: &[u8], k: usize| f32::from_le_bytes(r[4 * k..4 * k + 4].try_into().unwrap());
+    for (rec, want) in bytes.chunks_exact(28).zip(closest) {
+        let prim = u32::from_le_bytes(rec[4..8].try_into().unwrap());
+        assert_eq!((f(rec, 0), prim), *want);
+        let n = (f(rec, 4), f(rec, 5), f(rec, 6));
+        let len = (n.0 * n.0 + n.1 * n.1 + n.2 * n.2).sqrt();
+        assert!(if want.0.is_finite() {
+            (len - 1.0).abs() < 1e-4
+        } else {
+            len == 0.0
+        });
+    }
+    // Straight down onto the red sphere: the normal points up.
+    assert!((f(&bytes[56..84], 6) - 1.0).abs() < 1e-4);
+    let o = hugrt(&[
+        "trace",
+        &fx,
+        "--rays",
+        rays.to_str().unwrap(),
+        "--hits",
+        full.to_str().unwrap(),
+        "--hit-format",
+        "full",
+        "--any-hit",
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
 }
 
 #[test]

@@ -2,7 +2,9 @@
 //! rays are raw little-endian records of 8 `f32` `ox oy oz tmin dx dy dz tmax` (32 bytes, no
 //! header); hits are per ray an `f32` `t` (+inf on a miss) and a `u32` primitive index
 //! (`0xFFFFFFFF` on a miss). For any-hit queries `t` is 1.0 and the index 0 when the ray is
-//! blocked, as embree-peer writes them.
+//! blocked, as embree-peer writes them. The full hits format ([`encode_full_hits`]) adds the
+//! barycentrics and the geometric normal of each closest hit: per ray `f32 t`, `u32` index,
+//! `f32 u, v`, `f32 nx, ny, nz` (28 bytes; a miss is +inf, `0xFFFFFFFF` and zeros).
 
 use crate::accel::{AnyAccel, Hit, NoCounters, Primitives, RayCounters};
 use crate::geometry::{Ray, Vec3};
@@ -10,6 +12,7 @@ use rayon::prelude::*;
 
 pub const RAY_BYTES: usize = 32;
 pub const HIT_BYTES: usize = 8;
+pub const FULL_HIT_BYTES: usize = 28;
 
 #[derive(Debug, thiserror::Error)]
 #[error("rays file is {len} bytes, not a multiple of {RAY_BYTES} (8 little-endian f32 per ray)")]
@@ -55,6 +58,36 @@ pub fn encode_hits(hits: &[Option<Hit>]) -> Vec<u8> {
         out.extend_from_slice(&p.to_le_bytes());
     }
     out
+}
+
+/// Closest hits in the full format (module documentation), with [`Hit::details`] computed
+/// once per hit.
+///
+/// # Panics
+/// When `hits` and `rays` differ in length.
+pub fn encode_full_hits<P: Primitives>(prims: &P, rays: &[Ray], hits: &[Option<Hit>]) -> Vec<u8> {
+    assert_eq!(hits.len(), rays.len(), "one answer per ray");
+    let records: Vec<[u8; FULL_HIT_BYTES]> = hits
+        .par_iter()
+        .zip(rays.par_iter())
+        .map(|(h, r)| {
+            let (t, p, u, v, n) = match h {
+                Some(h) => {
+                    let d = h.details(prims, r);
+                    (d.t, d.prim, d.u, d.v, d.normal)
+                }
+                None => (f32::INFINITY, u32::MAX, 0.0, 0.0, Vec3::ZERO),
+            };
+            let mut rec = [0u8; FULL_HIT_BYTES];
+            rec[0..4].copy_from_slice(&t.to_le_bytes());
+            rec[4..8].copy_from_slice(&p.to_le_bytes());
+            for (k, x) in [u, v, n.x, n.y, n.z].into_iter().enumerate() {
+                rec[8 + 4 * k..12 + 4 * k].copy_from_slice(&x.to_le_bytes());
+            }
+            rec
+        })
+        .collect();
+    records.concat()
 }
 
 /// Traces every ray on the current rayon pool. Any-hit results are reported as

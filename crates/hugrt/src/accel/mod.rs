@@ -96,6 +96,47 @@ impl Hit {
     }
 }
 
+/// What renderers and collision code want of a hit besides `t` and the primitive, computed
+/// once per hit ([`Hit::details`]), never in a structure's inner loop.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HitDetails {
+    pub t: f32,
+    pub prim: u32,
+    /// Barycentric coordinates of a triangle's hit point, the weights of its vertices 1 and 2
+    /// (`p = (1 − u − v)·v0 + u·v1 + v·v2`), in double precision from the point at `t`; 0 for
+    /// other primitives.
+    pub u: f32,
+    pub v: f32,
+    /// Unit geometric normal: a triangle's `(v1 − v0) × (v2 − v0)` (its winding decides the
+    /// side, not the ray), a sphere's or cone's outward normal; zero for opaque primitives.
+    pub normal: Vec3,
+}
+
+impl Hit {
+    /// The hit's barycentrics and normal, for the ray that found it.
+    pub fn details<P: Primitives>(&self, prims: &P, ray: &Ray) -> HitDetails {
+        let p = ray.at(self.t);
+        let (u, v, normal) = match prims.kind(self.prim as usize) {
+            PrimitiveKind::Triangle(tri) => {
+                let b = crate::geometry::barycentric(&tri, p);
+                let (u, v) = (b.y, b.z);
+                let n = (tri[1] - tri[0]).cross(tri[2] - tri[0]).normalize_or_zero();
+                (u, v, n)
+            }
+            PrimitiveKind::Sphere(s) => (0.0, 0.0, (p - s.center).normalize_or_zero()),
+            PrimitiveKind::Cone(c) => (0.0, 0.0, c.normal(p)),
+            PrimitiveKind::Opaque => (0.0, 0.0, Vec3::ZERO),
+        };
+        HitDetails {
+            t: self.t,
+            prim: self.prim,
+            u,
+            v,
+            normal,
+        }
+    }
+}
+
 /// Statistics a structure reports about itself (`hugrt stats`): named numbers, in the order
 /// the structure finds meaningful, its cells for Havran's septet, and for grid hierarchies the
 /// statistics of each level (SCG97 §3).
