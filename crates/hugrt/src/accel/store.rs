@@ -19,7 +19,7 @@
 //! ([`intersect_triangle`], [`Sphere::intersect`], [`Cone::intersect`]) on the same numbers, so
 //! a hit found through the store is bit for bit the hit brute force finds.
 
-use super::hierarchy::Frame;
+use super::Frame;
 use super::sort::radix_sort_high32;
 use super::{Counters, PrimitiveKind, Primitives, simd};
 use crate::geometry::{Aabb, Cone, PreparedRay, Sphere, Vec3, intersect_triangle};

@@ -2,8 +2,9 @@
 
 use super::cluster::{Item, cluster3d, graph_components};
 use super::filter::Filter;
+use crate::accel::Frame;
 use crate::accel::PrimStore;
-use crate::accel::hierarchy::{Frame, GridPlan, MAX_CELLS, Resolution};
+use crate::accel::hierarchy::{GridPlan, MAX_CELLS, Resolution};
 use crate::accel::sort::sort_indices;
 use crate::accel::store::finite;
 use crate::geometry::{Aabb, Vec3};

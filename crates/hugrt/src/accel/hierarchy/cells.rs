@@ -1,0 +1,63 @@
+//! The cells' references, indexed for the occupied cells only.
+
+/// Where each cell's references lie, kept for the occupied cells only: most cells of most
+/// scenes are empty (90% on a mesh at 2 cells per triangle, more in finer grids), and four
+/// bytes of offset for each would dominate a fine grid's memory. One bit per cell says whether
+/// it is occupied; the occupied cells before each 64-cell word (`rank`) plus the bits below
+/// the cell in its word give its place among the occupied ones (a rank query on a bit
+/// vector). About 0.2 bytes per cell plus 4 per occupied cell, where plain offsets take 4 per
+/// cell; the walk reads the bits, which stay in cache, and touches the rest only for occupied
+/// cells.
+pub(super) struct CellIndex {
+    pub(super) occupied: Vec<u64>,
+    pub(super) rank: Vec<u32>,
+    /// Start of each occupied cell's references in cell order, then the end of the last.
+    pub(super) starts: Vec<u32>,
+    pub(super) cells: usize,
+}
+
+impl CellIndex {
+    /// From `(cell, reference)` pairs sorted by cell (cells in the upper 32 bits).
+    pub(super) fn from_sorted(pairs: &[u64], cells: usize) -> CellIndex {
+        let mut occupied = vec![0u64; cells.div_ceil(64)];
+        let mut starts = Vec::new();
+        let mut last = u64::MAX;
+        for (k, &p) in pairs.iter().enumerate() {
+            let c = p >> 32;
+            if c != last {
+                starts.push(k as u32);
+                occupied[c as usize / 64] |= 1 << (c % 64);
+                last = c;
+            }
+        }
+        starts.push(pairs.len() as u32);
+        let mut rank = Vec::with_capacity(occupied.len());
+        let mut before = 0u32;
+        for w in &occupied {
+            rank.push(before);
+            before += w.count_ones();
+        }
+        CellIndex {
+            occupied,
+            rank,
+            starts,
+            cells,
+        }
+    }
+
+    /// The references of cell `i`, or `None` when it has none.
+    #[inline(always)]
+    pub(super) fn range(&self, i: usize) -> Option<(usize, usize)> {
+        let w = self.occupied[i / 64];
+        let bit = 1u64 << (i % 64);
+        if w & bit == 0 {
+            return None;
+        }
+        let r = self.rank[i / 64] as usize + (w & (bit - 1)).count_ones() as usize;
+        Some((self.starts[r] as usize, self.starts[r + 1] as usize))
+    }
+
+    pub(super) fn memory_bytes(&self) -> usize {
+        8 * self.occupied.capacity() + 4 * (self.rank.capacity() + self.starts.capacity())
+    }
+}

@@ -1,0 +1,161 @@
+//! What a grid hierarchy is built from: each grid's plan (its items, resolution rule, frame,
+//! depth and level), the rule for cutting crowded cells again ([`Subdivision`]), and which
+//! objects are referenced by the exact overlap test ([`Prune`]).
+
+use super::MAX_CELLS;
+use crate::accel::{Frame, SpecError};
+use crate::geometry::Vec3;
+
+/// Cells per axis for a box of side lengths `extent` holding about `cells` cells that are as
+/// cubical as possible (Woo, GI'92): side `s = (V / cells)^(1/k)` over the `k` axes of non-zero
+/// extent, then `round(extent_i / s)` cells on axis `i`, at least 1.
+pub fn cubical_resolution(extent: Vec3, cells: f64) -> [u32; 3] {
+    let cells = cells.clamp(1.0, MAX_CELLS);
+    let e = extent.as_dvec3();
+    let emax = e.max_element();
+    if emax.is_nan() || emax <= 0.0 {
+        return [1, 1, 1];
+    }
+    let active: Vec<f64> = e
+        .to_array()
+        .into_iter()
+        .filter(|&x| x > emax * 1e-6)
+        .collect();
+    let measure: f64 = active.iter().product();
+    let side = (measure / cells).powf(1.0 / active.len() as f64);
+    let per_axis = (cells.powf(1.0 / active.len() as f64) * 4.0).min(MAX_CELLS);
+    e.to_array().map(|x| {
+        if x > emax * 1e-6 {
+            (x / side).round().clamp(1.0, per_axis) as u32
+        } else {
+            1
+        }
+    })
+}
+
+/// Which objects are referenced only from the cells their surface meets (EG95 §1.2.1's
+/// pruning; RTNews found it worth 10% at most on the SPD scenes) rather than from every cell
+/// their box meets.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Prune {
+    None,
+    All,
+    /// Objects whose box spans at least [`Prune::LARGE`] cells: long thin triangles (the
+    /// slivers of SPD gears' concave outlines) are where box binning references many cells
+    /// the object never meets, and where the exact test pays for itself; for an object within
+    /// a few cells it costs more build time than it saves.
+    Large,
+}
+
+impl Prune {
+    pub const LARGE: u64 = 16;
+
+    /// The setting as `hugrt stats` reports it: 0 (false), 1 (true) or the `LARGE` threshold.
+    pub(crate) fn stat_value(self) -> f64 {
+        match self {
+            Prune::None => 0.0,
+            Prune::All => 1.0,
+            Prune::Large => Prune::LARGE as f64,
+        }
+    }
+
+    pub(crate) fn from_spec(spec: &crate::accel::Spec, default: Prune) -> Result<Prune, SpecError> {
+        let name = match default {
+            Prune::None => "false",
+            Prune::All => "true",
+            Prune::Large => "large",
+        };
+        Ok(
+            match spec.choice("prune", &["false", "true", "large"], name)? {
+                "true" => Prune::All,
+                "large" => Prune::Large,
+                _ => Prune::None,
+            },
+        )
+    }
+}
+
+/// How many cells a planned grid gets.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum Resolution {
+    /// About this many cells, as cubical as possible.
+    Cubical(f64),
+    /// About this many cells, as many on every axis: EG95 §1.2.2's `∛` criterion,
+    /// `n_x = n_y = n_z = ∛cells` (RTNews' "regular" grids, against its heterogeneous ones
+    /// whose cells are cubes).
+    Regular(f64),
+    /// Exactly these cells per axis.
+    Fixed([u32; 3]),
+}
+
+impl Resolution {
+    /// The resolution for `k` objects when `self` counts cells per object (`Cubical` and
+    /// `Regular`: RTNews' heterogeneous grids and EG95's `∛` criterion at `d·k` cells);
+    /// `Fixed` is the same for any `k` (the octree's 2×2×2).
+    pub(crate) fn for_objects(self, k: usize) -> Resolution {
+        match self {
+            Resolution::Cubical(d) => Resolution::Cubical(d * k as f64),
+            Resolution::Regular(d) => Resolution::Regular(d * k as f64),
+            fixed @ Resolution::Fixed(_) => fixed,
+        }
+    }
+
+    pub(super) fn cells_per_axis(self, extent: Vec3) -> [u32; 3] {
+        match self {
+            Resolution::Cubical(cells) => cubical_resolution(extent, cells),
+            Resolution::Regular(cells) => {
+                let k = cells.clamp(1.0, MAX_CELLS).cbrt().round().max(1.0) as u32;
+                [k; 3]
+            }
+            Resolution::Fixed(r) => r.map(|x| x.max(1)),
+        }
+    }
+}
+
+/// How crowded cells are gridded again, top-down: Jevans and Wyvill's recursive grid (EG95
+/// §1.2.2), EG95's simulated octree, the adaptive grid's sub-voxel grids. A cell referencing
+/// more than `maxp` objects gets a grid over its own box (the cell widened by the margin),
+/// holding those objects; the cell then references that grid instead of them, so cells of
+/// different grids never overlap and each sub-grid is walked from one cell only. (Skipping
+/// the grid mailbox for such grids was measured and dropped: ×0.98–1.05 on rgrid and octree,
+/// kitchen, stadium and bunny, paired.)
+///
+/// Termination (EG95 §1.2.2: `maxp` coplanar triangles sharing a point would recurse
+/// forever): as in Jevans and Wyvill and EG95, no grid deeper than `max_depth`; and the
+/// references and cells of all grids stay within `2·(64·n + 4096)` and the root's cells plus
+/// `64·n + 4096`: sub-grids are made level by level and, within a level, in cell order until
+/// the next would overflow either budget. Coplanar stacks therefore grow as the papers say
+/// they do, explosively, up to that bound. hugrt's own guard (`guard`, not the papers'), off
+/// unless asked for: a cell holding every object of its grid is not cut again, since its
+/// grid would only repeat the one above; it stops the coplanar case at once, but it also
+/// leaves uncut a crowded cell that happens to hold its grid's every object (a cluster
+/// beside one large triangle that crosses its cell).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Subdivision {
+    pub maxp: usize,
+    pub max_depth: u32,
+    /// hugrt's guard: a cell holding every object of its grid is not cut again.
+    pub guard: bool,
+    /// Cells of a cut cell's grid, per object it holds ([`Resolution::for_objects`]).
+    pub cells: Resolution,
+}
+
+/// One grid to build: what it holds and how finely it is cut.
+pub(crate) struct GridPlan {
+    /// Store entries binned in the grid, in ascending order.
+    pub objects: Vec<u32>,
+    /// Grids referenced from its cells (indices in the plan list, each after this one).
+    pub children: Vec<u32>,
+    pub resolution: Resolution,
+    pub frame: Option<Frame>,
+    /// Nesting depth in the hierarchy (0 = the root).
+    pub depth: u32,
+    /// The level the statistics and counters report it under: the filter level of a HUG's
+    /// grid (0 = the world's, the largest objects), the depth for the other structures.
+    pub level: u32,
+    /// Whether the grid's box is the whole scene's (a root) rather than its items'.
+    pub scene_box: bool,
+    /// Whether its cell planes are moved off the box's round fractions
+    /// ([`GridHeader::shift_planes`]: one more cell along axes of 4 or more).
+    pub shift: bool,
+}

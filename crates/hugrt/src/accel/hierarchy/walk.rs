@@ -1,0 +1,287 @@
+//! The walk (EG95 §2.3.2): the 3D-DDA of Amanatides and Woo through one grid, each cell's
+//! objects tested (eight triangles at a time where AVX2 allows) and each grid it references
+//! walked with the same ray state; see the module documentation for when it stops.
+
+use super::{GRID_TAG, GridHierarchy, NO_FRAME};
+use crate::accel::store::Nearest;
+use crate::accel::{Counters, Mailbox, Primitives};
+use crate::geometry::{PreparedRay, Vec3};
+
+/// `1 + 2·gamma(3)` of Ize ("Robust BVH Ray Traversal", JCGT 2013): scaling the far slab
+/// distance by it makes the slab test conservative under rounding.
+const ROBUST_FAR: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
+
+/// The 3D-DDA's state along one axis: the parameter of the next cell boundary ahead and how to
+/// cross it.
+#[derive(Clone, Copy)]
+struct Axis {
+    /// Parameter at which the ray meets the next plane ahead.
+    next: f32,
+    /// Plane `k` is met at `base + k·delta`: computed afresh at every step rather than
+    /// accumulated, so that rounding does not grow with the length of the walk.
+    base: f32,
+    delta: f32,
+    /// Index of the next plane ahead, the step to the one after it, and the index of the
+    /// grid's boundary plane on this side.
+    k: i32,
+    step: i32,
+    boundary: i32,
+    /// Change of the cell index when this plane is crossed.
+    jump: isize,
+}
+
+impl Axis {
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn new(
+        min: f32,
+        size: f32,
+        res: i32,
+        o: f32,
+        d: f32,
+        inv: f32,
+        cell: i32,
+        stride: isize,
+    ) -> Axis {
+        let base = (min - o) * inv;
+        let delta = size * inv;
+        let (k, step, boundary) = if d > 0.0 {
+            (cell + 1, 1, res)
+        } else if d < 0.0 {
+            (cell, -1, 0)
+        } else {
+            return Axis {
+                next: f32::INFINITY,
+                base,
+                delta,
+                k: 0,
+                step: 0,
+                boundary: 0,
+                jump: 0,
+            };
+        };
+        Axis {
+            next: base + k as f32 * delta,
+            base,
+            delta,
+            k,
+            step,
+            boundary,
+            jump: step as isize * stride,
+        }
+    }
+
+    /// Crosses the plane ahead into the next cell, moving `idx`; `false` when that plane is
+    /// the grid's boundary.
+    #[inline(always)]
+    fn cross(&mut self, idx: &mut isize) -> bool {
+        if self.k == self.boundary {
+            return false;
+        }
+        *idx += self.jump;
+        self.k += self.step;
+        self.next = self.base + self.k as f32 * self.delta;
+        true
+    }
+}
+
+impl GridHierarchy {
+    /// Walks grid `g` along `ray` from `tmin`, improving `near`; the grid's
+    /// [`GridPlan::level`] is where the counters count. Returns `true` when `ANY_HIT` found a hit and the whole query may
+    /// stop. The ray must be traceable ([`crate::geometry::Ray::is_traceable`]).
+    #[allow(clippy::too_many_arguments)]
+    pub fn walk<P: Primitives, C: Counters, const ANY_HIT: bool>(
+        &self,
+        g: u32,
+        prims: &P,
+        ray: &PreparedRay,
+        tmin: f32,
+        near: &mut Nearest,
+        mail: &mut Mailbox,
+        counters: &mut C,
+    ) -> bool {
+        let h = &self.grids[g as usize];
+        let depth = h.level as usize;
+        counters.box_test(depth);
+        let (o, d, inv) = if h.frame == NO_FRAME {
+            (ray.ray.origin, ray.ray.dir, ray.inv_dir)
+        } else {
+            let f = &self.frames[h.frame as usize];
+            let d = f.dir(ray.ray.dir);
+            (f.point(ray.ray.origin), d, Vec3::ONE / d)
+        };
+        // Slab test; `min`/`max` return the non-NaN operand, so a 0·inf slab is ignored.
+        let ta = (h.min - o) * inv;
+        let tb = (h.max - o) * inv;
+        let t0 = tmin.max(ta.min(tb).max_element());
+        let t1 = near.t.min(ta.max(tb).min_element() * ROBUST_FAR);
+        let entered = t0 <= t1;
+        if !entered {
+            return false;
+        }
+        let p = o + d * t0;
+        let res = h.res;
+        let stride = [1, res[0] as isize, res[0] as isize * res[1] as isize];
+        // Spelled out rather than `std::array::from_fn`, which the compiler left as calls
+        // (the bvh's lesson, `docs/measurements.md`).
+        let cell = [
+            h.coord(0, p.x) as i32,
+            h.coord(1, p.y) as i32,
+            h.coord(2, p.z) as i32,
+        ];
+        let mut idx = h.first_cell as isize
+            + cell[0] as isize
+            + cell[1] as isize * stride[1]
+            + cell[2] as isize * stride[2];
+        // Each axis's state lives in its own variables, so that a step touches registers
+        // only: indexing arrays by the axis of the step costs a store and a reload.
+        let axis = |a: usize| {
+            Axis::new(
+                h.min[a],
+                h.size[a],
+                res[a] as i32,
+                o[a],
+                d[a],
+                inv[a],
+                cell[a],
+                stride[a],
+            )
+        };
+        let (mut ax, mut ay, mut az) = (axis(0), axis(1), axis(2));
+        let mut far = near.t;
+        loop {
+            counters.cell_visit(depth);
+            if let Some((s, e)) = self.cells.range(idx as usize) {
+                let refs = &self.refs[s..e];
+                for &r in refs {
+                    self.store.prefetch(r);
+                }
+                if self
+                    .test_cell::<P, C, ANY_HIT>(refs, prims, ray, tmin, near, mail, counters, depth)
+                {
+                    return true;
+                }
+                far = near.t;
+            }
+            // The next cell is across the nearest of the three planes ahead; the walk stops
+            // when the nearest hit lies before it, or when it is the grid's boundary.
+            // (One branch per axis, rather than a reference to the chosen axis, which would
+            // put the three in memory.)
+            macro_rules! step {
+                ($axis:ident) => {
+                    if far <= $axis.next || !$axis.cross(&mut idx) {
+                        break;
+                    }
+                };
+            }
+            if ax.next < ay.next {
+                if ax.next < az.next {
+                    step!(ax)
+                } else {
+                    step!(az)
+                }
+            } else if ay.next < az.next {
+                step!(ay)
+            } else {
+                step!(az)
+            }
+        }
+        false
+    }
+
+    /// Tests the references of one cell: its objects (triangles first, eight at a time when
+    /// [`Self::simd`] allows, in store order either way), then walks the grids it references.
+    /// Returns `true` when `ANY_HIT` found a hit.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    pub(super) fn test_cell<P: Primitives, C: Counters, const ANY_HIT: bool>(
+        &self,
+        refs: &[u32],
+        prims: &P,
+        ray: &PreparedRay,
+        tmin: f32,
+        near: &mut Nearest,
+        mail: &mut Mailbox,
+        counters: &mut C,
+        depth: usize,
+    ) -> bool {
+        let mut rest = refs;
+        #[cfg(target_arch = "x86_64")]
+        if self.simd && refs.len() >= 2 {
+            let triangles = self.store.triangles();
+            let tri_count = refs.partition_point(|&r| (r as usize) < triangles.len());
+            rest = &refs[tri_count..];
+            let mut batch = [0u32; 8];
+            let mut n = 0;
+            for (k, &r) in refs[..tri_count].iter().enumerate() {
+                if mail.first_visit(r) {
+                    batch[n] = r;
+                    n += 1;
+                }
+                if n == 8 || (k + 1 == tri_count && n > 0) {
+                    for b in n..8 {
+                        batch[b] = batch[0];
+                    }
+                    // SAFETY: `simd` is set only when AVX2 is present and `9·len` fits an
+                    // i32 (`build`); every batched index is a triangle's (below
+                    // `triangles.len()`, by the partition), the padding repeats one of them.
+                    if unsafe {
+                        self.store.offer_triangles8::<P, C, ANY_HIT>(
+                            prims, &batch, n, ray, tmin, near, counters, depth,
+                        )
+                    } {
+                        return true;
+                    }
+                    n = 0;
+                }
+            }
+        }
+        for &r in rest {
+            if r & GRID_TAG != 0 {
+                let sub = r & !GRID_TAG;
+                if mail.first_grid_visit(sub)
+                    && self.walk::<P, C, ANY_HIT>(sub, prims, ray, tmin, near, mail, counters)
+                {
+                    return true;
+                }
+                continue;
+            }
+            if !mail.first_visit(r) {
+                continue;
+            }
+            counters.prim_test(depth);
+            if let Some(t) = self.store.intersect(prims, r, ray, tmin, near.t) {
+                counters.prim_hit(depth);
+                if near.offer(&self.store, t, r) && ANY_HIT {
+                    return true;
+                }
+            }
+        }
+        false
+    }
+
+    /// Closest or any hit of a traceable ray.
+    #[inline]
+    pub fn query<P: Primitives, C: Counters, const ANY_HIT: bool>(
+        &self,
+        prims: &P,
+        ray: &crate::geometry::Ray,
+        counters: &mut C,
+    ) -> Option<crate::accel::Hit> {
+        if self.store.is_empty() {
+            return None;
+        }
+        let pr = PreparedRay::new(ray);
+        let mut near = Nearest::new(ray.tmax);
+        self.walk::<P, C, ANY_HIT>(
+            0,
+            prims,
+            &pr,
+            ray.tmin,
+            &mut near,
+            &mut Mailbox::default(),
+            counters,
+        );
+        near.hit(&self.store)
+    }
+}
