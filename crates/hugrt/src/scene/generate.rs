@@ -745,17 +745,20 @@ fn sphereflake(b: &mut Builder, depth: u32) {
         Vec3::new(12.0, -1.0, 12.0),
         Vec3::new(12.0, -1.0, -12.0),
     );
+    // The SPD's view and lights (`balls`) scaled to this flake, twice the size of the SPD's
+    // (whose base sphere has radius 0.5), and turned so that y is up: the floor at y = −1
+    // stays below every light.
     b.scene.camera = Camera {
-        from: Vec3::new(2.1, 1.3, 1.7),
+        from: Vec3::new(4.2, 2.6, 3.4),
         at: Vec3::new(0.0, 0.0, 0.0),
         up: Vec3::Y,
         fov_deg: 45.0,
         width: 512,
         height: 512,
     };
-    b.light(Vec3::new(4.0, 3.0, 2.0), 0.6);
-    b.light(Vec3::new(1.0, -4.0, 4.0), 0.4);
-    b.light(Vec3::new(-3.0, 1.0, 5.0), 0.4);
+    b.light(Vec3::new(8.0, 6.0, 4.0), 0.6);
+    b.light(Vec3::new(2.0, 8.0, -8.0), 0.4);
+    b.light(Vec3::new(-6.0, 2.0, 10.0), 0.4);
 }
 
 /// A stadium 300 m across, of large tiers, with a few small, very detailed objects on the
