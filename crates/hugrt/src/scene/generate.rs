@@ -416,21 +416,34 @@ fn tableware(b: &mut Builder, t: &Affine3A, w: f32, d: f32, count: usize, detail
         let x = b.rng.random_range(-w / 2.0 * 0.8..w / 2.0 * 0.8);
         let z = b.rng.random_range(-d / 2.0 * 0.8..d / 2.0 * 0.8);
         let turn = Quat::from_rotation_y(b.rng.random_range(0.0..TAU));
-        let here = *t * Affine3A::from_rotation_translation(turn, Vec3::new(x, 0.0, z));
-        match b.rng.random_range(0..6) {
+        let kind = b.rng.random_range(0..6);
+        // The object's size, and how far it reaches from where it stands in any turn: it is
+        // moved in from the surface's edges by that much, so that nothing pokes through the
+        // wall behind a shelf or counter.
+        let (size, reach) = match kind {
             0 => {
                 let h = b.rng.random_range(0.12..0.2);
-                teapot(b, &here, h, detail)
+                (h, h)
             }
-            1 => {
-                let n = b.rng.random_range(3..12);
-                plates(b, &here, 0.11, n, seg)
-            }
+            1 => (b.rng.random_range(3..12) as f32, 0.11),
             2 => {
                 let r = b.rng.random_range(0.06..0.1);
-                bowl(b, &here, r, seg, 2 + detail)
+                (r, r)
             }
-            3 => cup(b, &here, 0.035, seg),
+            3 => (0.035, 0.06),
+            _ => (0.0, 0.12),
+        };
+        let inside = |v: f32, half: f32| {
+            let m = (half - reach).max(0.0);
+            v.clamp(-m, m)
+        };
+        let (x, z) = (inside(x, w / 2.0), inside(z, d / 2.0));
+        let here = *t * Affine3A::from_rotation_translation(turn, Vec3::new(x, 0.0, z));
+        match kind {
+            0 => teapot(b, &here, size, detail),
+            1 => plates(b, &here, 0.11, size as usize, seg),
+            2 => bowl(b, &here, size, seg, 2 + detail),
+            3 => cup(b, &here, size, seg),
             4 => {
                 // A fruit bowl: a bowl heaped with small fruit.
                 bowl(b, &here, 0.12, seg, 2 + detail);
@@ -494,7 +507,8 @@ fn kitchen(b: &mut Builder, detail: u32, t: Affine3A) {
     }
     // Shelves on the side wall.
     for k in 0..3 {
-        let s = t * at(0.2, 1.3 + 0.4 * k as f32, 2.5) * Affine3A::from_rotation_y(FRAC_PI_2);
+        // 10 cm off the wall: what stands on a shelf reaches up to 20 cm from its middle.
+        let s = t * at(0.25, 1.3 + 0.4 * k as f32, 2.5) * Affine3A::from_rotation_y(FRAC_PI_2);
         b.with(WOOD)
             .cuboid(&s, Vec3::new(-1.2, -0.02, -0.15), Vec3::new(1.2, 0.0, 0.15));
         tableware(b, &s, 2.4, 0.3, 3 + d, d);
