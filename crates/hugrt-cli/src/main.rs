@@ -68,6 +68,8 @@ enum Command {
         /// Render a scene with no primitives (a blank image) rather than fail.
         #[arg(long)]
         allow_empty: bool,
+        #[command(flatten)]
+        view: ViewArgs,
     },
     /// Batch ray queries: read a rays file, write a hits file (the embree-peer format).
     ///
@@ -174,6 +176,70 @@ enum Command {
         #[arg(short, long)]
         quiet: bool,
     },
+}
+
+/// Where the camera of `render` stands, overriding the scene's (a mesh's default frames its
+/// bounding box from outside).
+#[derive(clap::Args, Clone, Copy)]
+struct ViewArgs {
+    /// Eye position, X,Y,Z.
+    #[arg(long, value_parser = parse_point, allow_hyphen_values = true)]
+    eye: Option<hugrt::geometry::Vec3>,
+    /// Point looked at, X,Y,Z.
+    #[arg(long, value_parser = parse_point, allow_hyphen_values = true)]
+    look_at: Option<hugrt::geometry::Vec3>,
+    /// Up direction, X,Y,Z.
+    #[arg(long, value_parser = parse_point, allow_hyphen_values = true)]
+    up: Option<hugrt::geometry::Vec3>,
+    /// Vertical field of view in degrees, between 0 and 180.
+    #[arg(long)]
+    fov: Option<f32>,
+}
+
+impl ViewArgs {
+    /// The scene's camera with these options applied; an error for a view that cannot be.
+    fn apply(&self, mut camera: hugrt::scene::Camera) -> Result<hugrt::scene::Camera> {
+        camera.from = self.eye.unwrap_or(camera.from);
+        camera.at = self.look_at.unwrap_or(camera.at);
+        camera.up = self.up.unwrap_or(camera.up);
+        camera.fov_deg = self.fov.unwrap_or(camera.fov_deg);
+        let forward = camera.at - camera.from;
+        if !(camera.fov_deg > 0.0 && camera.fov_deg < 180.0) {
+            bail!(
+                "--fov {}: must be between 0 and 180 degrees",
+                camera.fov_deg
+            );
+        }
+        if forward.length_squared() == 0.0 {
+            bail!("the eye and the point looked at are the same point");
+        }
+        if forward.cross(camera.up).length_squared()
+            <= 1e-12 * forward.length_squared() * camera.up.length_squared()
+        {
+            bail!(
+                "the up direction {} is parallel to the view direction",
+                camera.up
+            );
+        }
+        Ok(camera)
+    }
+}
+
+/// `X,Y,Z` as a point with finite coordinates.
+fn parse_point(s: &str) -> std::result::Result<hugrt::geometry::Vec3, String> {
+    let v: Vec<f32> = s
+        .split(',')
+        .map(|x| {
+            x.trim()
+                .parse::<f32>()
+                .map_err(|_| format!("'{x}' is not a number"))
+        })
+        .collect::<std::result::Result<_, _>>()?;
+    match v[..] {
+        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok(hugrt::geometry::Vec3::new(x, y, z)),
+        [_, _, _] => Err("coordinates must be finite".into()),
+        _ => Err(format!("'{s}' is not X,Y,Z")),
+    }
 }
 
 /// The image of an SPD rendering (`render`, and `bench --rays whitted`).
@@ -342,6 +408,7 @@ fn run(cli: Cli) -> Result<()> {
             counters,
             quiet,
             allow_empty,
+            view,
         } => {
             image.check()?;
             check_spec(&accel)?;
@@ -349,8 +416,9 @@ fn run(cli: Cli) -> Result<()> {
             let name = scene.unwrap_or_else(|| "builtin:kitchen".to_string());
             pool(threads)?.install(|| {
                 let t = Instant::now();
-                let scene = load_scene(&name)?;
+                let mut scene = load_scene(&name)?;
                 check_not_empty(&name, &scene, allow_empty)?;
+                scene.camera = view.apply(scene.camera)?;
                 let load_s = t.elapsed().as_secs_f64();
                 let (acc, mut build_s) = build(&scene, &accel)?;
                 let soft = match image.soft_shadows {

@@ -227,6 +227,22 @@ fn errors_exit_nonzero_with_a_reason() {
             vec!["stats", fx, "--accel", "grid:x"],
             "--accel grid:x: malformed spec: 'x'",
         ),
+        (
+            vec![
+                "render",
+                fx,
+                "--eye",
+                "1,1,1",
+                "--look-at",
+                "1,1,1",
+                "--quiet",
+            ],
+            "same point",
+        ),
+        (
+            vec!["render", fx, "--fov", "180", "--quiet"],
+            "between 0 and 180",
+        ),
     ];
     for (args, want) in cases {
         let o = hugrt(&args);
@@ -251,11 +267,31 @@ fn errors_exit_nonzero_with_a_reason() {
         ),
         (vec!["bench", fx, "--repeat", "0"], "0 is not in 1..=1000"),
         (vec!["bench", fx, "--ray-count", "0"], "0 is not in"),
+        (vec!["render", fx, "--eye", "1,nan,2"], "finite"),
+        (vec!["render", fx, "--look-at", "1,2"], "not X,Y,Z"),
     ] {
         let o = hugrt(&args);
         assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
         assert!(stderr(&o).contains(want), "{args:?}: {}", stderr(&o));
     }
+    // A view of one's own: another image than the scene's camera gives.
+    let (own, scenes) = (dir.path().join("own.png"), dir.path().join("scene.png"));
+    for (args, out) in [
+        (
+            vec!["--eye", "-3,-4.5,2", "--look-at", "0,0,0.5", "--fov", "60"],
+            &own,
+        ),
+        (vec![], &scenes),
+    ] {
+        let mut a = vec!["render", fx, "--quiet", "-o", out.to_str().unwrap()];
+        a.extend(args);
+        let o = hugrt(&a);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    assert_ne!(
+        std::fs::read(&own).unwrap(),
+        std::fs::read(&scenes).unwrap()
+    );
     // An empty scene renders when asked to.
     let out = dir.path().join("e.png");
     let o = hugrt(&[
