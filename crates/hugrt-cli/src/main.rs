@@ -199,6 +199,9 @@ struct ViewArgs {
 impl ViewArgs {
     /// The scene's camera with these options applied; an error for a view that cannot be.
     fn apply(&self, mut camera: hugrt::scene::Camera) -> Result<hugrt::scene::Camera> {
+        if self.eye.is_none() && self.look_at.is_none() && self.up.is_none() && self.fov.is_none() {
+            return Ok(camera);
+        }
         camera.from = self.eye.unwrap_or(camera.from);
         camera.at = self.look_at.unwrap_or(camera.at);
         camera.up = self.up.unwrap_or(camera.up);
