@@ -304,3 +304,29 @@ fn presets_are_overridden_by_keys_and_reject_unknown_names() {
         assert!(e.contains("preset"), "{spec}: {e}");
     }
 }
+
+#[test]
+fn every_preset_sets_keys_its_structure_has() {
+    // A preset's pairs are added after the spec's keys are checked: a misspelt key in a
+    // preset's table would be ignored, so each is checked here against the structure's keys.
+    for (structure, preset) in hugrt::accel::presets::ALL {
+        let keys = AnyAccel::keys(structure).unwrap();
+        for (key, value, why) in preset.pairs {
+            assert!(
+                keys.iter().any(|(k, _)| k == key),
+                "{structure}:preset={}: no key {key}",
+                preset.name
+            );
+            assert!(!why.is_empty(), "{key}={value} cites nothing");
+        }
+        // Its pairs written out are the preset itself.
+        let s = separated_clusters(2);
+        let by_name = stats(&s, &format!("{structure}:preset={}", preset.name));
+        let by_keys = stats(&s, &format!("{structure}:{}", preset.keys()));
+        assert_eq!(
+            by_name.entries, by_keys.entries,
+            "{structure}:preset={}",
+            preset.name
+        );
+    }
+}

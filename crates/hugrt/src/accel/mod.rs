@@ -41,6 +41,24 @@ pub use mailbox::Mailbox;
 pub use octree::Octree;
 pub use rgrid::RecursiveGrid;
 pub use spec::{Preset, Spec, SpecError};
+
+/// The papers' algorithms as structure settings (a structure's `preset` key), each value with
+/// the section of its paper: `hugrt stats SCENE --accel hug:preset=eg95` and so on.
+pub mod presets {
+    pub use super::hug::{EG95 as HUG_EG95, SCG97 as HUG_SCG97};
+    pub use super::kdtree::HAVRAN as KDTREE_HAVRAN;
+    pub use super::octree::EG95 as OCTREE_EG95;
+    pub use super::rgrid::EG95 as RGRID_EG95;
+
+    /// Every preset with the structure it belongs to.
+    pub const ALL: &[(&str, super::Preset)] = &[
+        ("hug", HUG_EG95),
+        ("hug", HUG_SCG97),
+        ("rgrid", RGRID_EG95),
+        ("octree", OCTREE_EG95),
+        ("kdtree", KDTREE_HAVRAN),
+    ];
+}
 pub use store::{Nearest, PrimStore};
 
 use crate::geometry::{Aabb, Cone, PreparedRay, Ray, Sphere, Vec3};
