@@ -135,6 +135,25 @@ enum Command {
         #[arg(short, long)]
         output: PathBuf,
     },
+    /// Regenerate experiments of the papers: each target writes DIR/TARGET/ with a report
+    /// (published beside measured, and a verdict), its data as CSV and JSON.
+    ///
+    /// Targets: scg97-scenes (SCG97 Fig. 4, the test scenes' statistics). `all` runs every
+    /// target.
+    Reproduce {
+        /// Targets to run.
+        #[arg(required = true)]
+        targets: Vec<String>,
+        /// Folder to write into.
+        #[arg(short, long, default_value = "reproduce")]
+        output: PathBuf,
+        /// Smaller scenes, for a first look.
+        #[arg(long)]
+        quick: bool,
+        /// Worker threads (default: all cores).
+        #[arg(long)]
+        threads: Option<usize>,
+    },
     /// Measure structures on the same work: build and trace times with their spread, Mrays/s,
     /// memory, Havran's septet and triplet, the papers' counters per ray and level, and whether
     /// every structure gives the first one's answers (an error when not).
@@ -602,6 +621,35 @@ fn run(cli: Cli) -> Result<()> {
                 output.display()
             );
             Ok(())
+        }
+        Command::Reproduce {
+            targets,
+            output,
+            quick,
+            threads,
+        } => {
+            let all: Vec<String> = hugrt::reproduce::TARGETS
+                .iter()
+                .map(|t| t.name.to_string())
+                .collect();
+            let targets = if targets.iter().any(|t| t == "all") {
+                all.clone()
+            } else {
+                targets
+            };
+            for t in &targets {
+                if !hugrt::reproduce::TARGETS.iter().any(|x| x.name == t) {
+                    bail!("unknown target '{t}'; targets: {}, all", all.join(", "));
+                }
+            }
+            let options = hugrt::reproduce::Options { quick };
+            pool(threads)?.install(|| {
+                for t in &targets {
+                    let dir = hugrt::reproduce::run(t, &options, &output)?;
+                    say!("{t}: {}", dir.join("report.md").display());
+                }
+                Ok(())
+            })
         }
         Command::Bench {
             scenes,

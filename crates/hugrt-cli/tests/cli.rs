@@ -512,3 +512,34 @@ fn bench_rejects_a_bad_image_side() {
         );
     }
 }
+
+#[test]
+fn reproduce_writes_a_report_and_its_data() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().to_str().unwrap();
+    let o = hugrt(&["reproduce", "scg97-scenes", "--quick", "-o", out]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let t = dir.path().join("scg97-scenes");
+    let report = std::fs::read_to_string(t.join("report.md")).unwrap();
+    // The published row beside the measured one, and a verdict.
+    assert!(
+        report.contains("| Kitchen | 20947 | 9.0e-4 | 6.5e-4 | 99.29 | `builtin:kitchen:1` |"),
+        "{report}"
+    );
+    assert!(report.contains("Verdict:"), "{report}");
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(t.join("data.json")).unwrap()).unwrap();
+    assert_eq!(j["published"].as_array().unwrap().len(), 5);
+    assert_eq!(j["measured"].as_array().unwrap().len(), 4);
+    let csv = std::fs::read_to_string(t.join("histogram.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1 + 4 * 20);
+    let scenes = std::fs::read_to_string(t.join("scenes.csv")).unwrap();
+    assert_eq!(scenes.lines().count(), 1 + 4);
+    let o = hugrt(&["reproduce", "eg96-kitchens", "-o", out]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("targets: scg97-scenes"),
+        "{}",
+        stderr(&o)
+    );
+}

@@ -6,6 +6,7 @@
 //! * [`accel`]: the spatial structures, all behind [`accel::Accel`], chosen by spec strings.
 //! * [`render`]: the Whitted renderer of the SPD test procedure.
 //! * [`stats`]: scene statistics (SCG97 Fig. 4).
+//! * [`reproduce`]: the papers' experiments regenerated, published beside measured.
 //! * [`batch`]: batch ray queries in the `hugrt trace` file format.
 //! * [`mod@bench`]: structures measured on the same work: times, Havran's septet and triplet,
 //!   counters, and the same-answers check.
@@ -15,5 +16,6 @@ pub mod batch;
 pub mod bench;
 pub mod geometry;
 pub mod render;
+pub mod reproduce;
 pub mod scene;
 pub mod stats;
