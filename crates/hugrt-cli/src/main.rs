@@ -138,8 +138,8 @@ enum Command {
     /// Regenerate experiments of the papers: each target writes DIR/TARGET/ with a report
     /// (published beside measured, and a verdict), its data as CSV and JSON.
     ///
-    /// Targets: scg97-scenes (SCG97 Fig. 4, the test scenes' statistics). `all` runs every
-    /// target.
+    /// Targets: scg97-scenes (SCG97 Fig. 4, the test scenes' statistics), rtnews-spd (RTNews'
+    /// table of grids on the SPD scenes). `all` runs every target.
     Reproduce {
         /// Targets to run.
         #[arg(required = true)]
@@ -150,6 +150,9 @@ enum Command {
         /// Smaller scenes, for a first look.
         #[arg(long)]
         quick: bool,
+        /// Where the SPD scenes are (NAME.nff.gz).
+        #[arg(long, default_value = "../shared/scenes/spd")]
+        spd_dir: PathBuf,
         /// Worker threads (default: all cores).
         #[arg(long)]
         threads: Option<usize>,
@@ -626,6 +629,7 @@ fn run(cli: Cli) -> Result<()> {
             targets,
             output,
             quick,
+            spd_dir,
             threads,
         } => {
             let all: Vec<String> = hugrt::reproduce::TARGETS
@@ -642,7 +646,7 @@ fn run(cli: Cli) -> Result<()> {
                     bail!("unknown target '{t}'; targets: {}, all", all.join(", "));
                 }
             }
-            let options = hugrt::reproduce::Options { quick };
+            let options = hugrt::reproduce::Options { quick, spd_dir };
             pool(threads)?.install(|| {
                 for t in &targets {
                     let dir = hugrt::reproduce::run(t, &options, &output)?;

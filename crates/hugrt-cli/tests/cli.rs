@@ -543,3 +543,54 @@ fn reproduce_writes_a_report_and_its_data() {
         stderr(&o)
     );
 }
+
+#[test]
+fn reproduce_rtnews_runs_on_the_spd_scenes_or_says_they_are_missing() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().to_str().unwrap();
+    let nowhere = dir.path().join("no-scenes");
+    let o = hugrt(&[
+        "reproduce",
+        "rtnews-spd",
+        "--quick",
+        "-o",
+        out,
+        "--spd-dir",
+        nowhere.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report = std::fs::read_to_string(dir.path().join("rtnews-spd/report.md")).unwrap();
+    assert!(
+        report.contains("Skipped") && report.contains("balls.nff.gz"),
+        "{report}"
+    );
+    let spd = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes/spd");
+    if !spd.is_dir() {
+        eprintln!(
+            "skipped: {} not found (the shared scenes are not beside this clone)",
+            spd.display()
+        );
+        return;
+    }
+    let o = hugrt(&[
+        "reproduce",
+        "rtnews-spd",
+        "--quick",
+        "-o",
+        out,
+        "--spd-dir",
+        spd.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let j: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.path().join("rtnews-spd/data.json")).unwrap(),
+    )
+    .unwrap();
+    // Eight scenes, five structures each, each uniform grid at D = 1 its own reference.
+    let rows = j["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 40);
+    for r in rows.iter().step_by(5) {
+        assert_eq!(r["measured_over_d1"], 1.0, "{r}");
+        assert_eq!(r["spec"], "grid:density=1");
+    }
+}
