@@ -87,8 +87,8 @@ impl Axis {
 
 impl GridHierarchy {
     /// Walks grid `g` along `ray` from `tmin`, improving `near`; the grid's
-    /// [`GridPlan::level`] is where the counters count. Returns `true` when `ANY_HIT` found a hit and the whole query may
-    /// stop. The ray must be traceable ([`crate::geometry::Ray::is_traceable`]).
+    /// `GridPlan::level` is where the counters count. Returns `true` when `ANY_HIT` found a
+    /// hit and the whole query may stop. The ray must be traceable ([`crate::geometry::Ray::is_traceable`]).
     #[allow(clippy::too_many_arguments)]
     pub fn walk<P: Primitives, C: Counters, const ANY_HIT: bool>(
         &self,
@@ -101,8 +101,8 @@ impl GridHierarchy {
         counters: &mut C,
     ) -> bool {
         let h = &self.grids[g as usize];
-        let depth = h.level as usize;
-        counters.box_test(depth);
+        let level = h.level as usize;
+        counters.box_test(level);
         let (o, d, inv) = if h.frame == NO_FRAME {
             (ray.ray.origin, ray.ray.dir, ray.inv_dir)
         } else {
@@ -150,14 +150,14 @@ impl GridHierarchy {
         let (mut ax, mut ay, mut az) = (axis(0), axis(1), axis(2));
         let mut far = near.t;
         loop {
-            counters.cell_visit(depth);
+            counters.cell_visit(level);
             if let Some((s, e)) = self.cells.range(idx as usize) {
                 let refs = &self.refs[s..e];
                 for &r in refs {
                     self.store.prefetch(r);
                 }
                 if self
-                    .test_cell::<P, C, ANY_HIT>(refs, prims, ray, tmin, near, mail, counters, depth)
+                    .test_cell::<P, C, ANY_HIT>(refs, prims, ray, tmin, near, mail, counters, level)
                 {
                     return true;
                 }
@@ -203,7 +203,7 @@ impl GridHierarchy {
         near: &mut Nearest,
         mail: &mut Mailbox,
         counters: &mut C,
-        depth: usize,
+        level: usize,
     ) -> bool {
         let mut rest = refs;
         #[cfg(target_arch = "x86_64")]
@@ -227,7 +227,7 @@ impl GridHierarchy {
                     // `triangles.len()`, by the partition), the padding repeats one of them.
                     if unsafe {
                         self.store.offer_triangles8::<P, C, ANY_HIT>(
-                            prims, &batch, n, ray, tmin, near, counters, depth,
+                            prims, &batch, n, ray, tmin, near, counters, level,
                         )
                     } {
                         return true;
@@ -249,9 +249,9 @@ impl GridHierarchy {
             if !mail.first_visit(r) {
                 continue;
             }
-            counters.prim_test(depth);
+            counters.prim_test(level);
             if let Some(t) = self.store.intersect(prims, r, ray, tmin, near.t) {
-                counters.prim_hit(depth);
+                counters.prim_hit(level);
                 if near.offer(&self.store, t, r) && ANY_HIT {
                     return true;
                 }
