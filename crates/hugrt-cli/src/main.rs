@@ -74,7 +74,8 @@ enum Command {
     /// Batch ray queries: read a rays file, write a hits file (the embree-peer format).
     ///
     /// Rays: little-endian f32 records `ox oy oz tmin dx dy dz tmax` (32 bytes). Hits: per ray
-    /// f32 t (+inf on a miss) then u32 primitive index (0xFFFFFFFF on a miss).
+    /// f32 t (+inf on a miss) then u32 primitive index (0xFFFFFFFF on a miss). With --all-hits:
+    /// per ray a u32 count, then that many (f32 t, u32 primitive) pairs in order of t.
     Trace {
         /// Scene file (.nff, .ply, .obj, optionally .gz), builtin:room[:TRIANGLES] or builtin:KIND[:SIZE].
         scene: String,
@@ -87,8 +88,12 @@ enum Command {
         #[arg(long, default_value = "hug", help = ACCEL_HELP)]
         accel: String,
         /// Occlusion queries: t = 1.0 and index 0 when anything is hit.
-        #[arg(long)]
+        #[arg(long, conflicts_with = "all_hits")]
         any_hit: bool,
+        /// Every hit along each ray in [tmin, tmax], each primitive once, in order of t: per
+        /// ray a u32 count, then that many (f32 t, u32 primitive) pairs, little-endian.
+        #[arg(long)]
+        all_hits: bool,
         /// basic: t and primitive (8 bytes a ray, embree-peer's); full: also the barycentric
         /// u, v and the unit geometric normal (28 bytes: f32 t, u32 primitive, f32 u v nx ny nz).
         #[arg(long, value_enum, default_value_t = HitFormat::Basic)]
@@ -512,17 +517,23 @@ fn run(cli: Cli) -> Result<()> {
             hits,
             accel,
             any_hit,
+            all_hits,
             hit_format,
             threads,
             repeat,
             counters,
         } => {
             check_spec(&accel)?;
-            if any_hit && hit_format == HitFormat::Full {
+            if (any_hit || all_hits) && hit_format == HitFormat::Full {
                 bail!(
-                    "--hit-format full describes closest hits; an --any-hit answer has no point to describe"
+                    "--hit-format full describes closest hits, not the answers of --any-hit or --all-hits"
                 );
             }
+            let query = match (any_hit, all_hits) {
+                (true, _) => hugrt::batch::Query::Any,
+                (_, true) => hugrt::batch::Query::All,
+                _ => hugrt::batch::Query::Closest,
+            };
             pool(threads)?.install(|| {
                 let scene = load_scene(&scene)?;
                 let bytes =
@@ -531,20 +542,33 @@ fn run(cli: Cli) -> Result<()> {
                     .with_context(|| rays.display().to_string())?;
                 let (acc, build_s) = build(&scene, &accel)?;
                 let mut times = Vec::new();
-                let mut result = vec![None; ray_list.len()];
-                for _ in 0..repeat {
-                    let t = Instant::now();
-                    hugrt::batch::trace_into(&scene, &acc, &ray_list, any_hit, &mut result);
-                    times.push(t.elapsed().as_secs_f64());
-                }
-                let trace_s = bench::median(times);
-                let encoded = match hit_format {
-                    HitFormat::Basic => hugrt::batch::encode_hits(&result),
-                    HitFormat::Full => hugrt::batch::encode_full_hits(&scene, &ray_list, &result),
+                let (encoded, hit_count) = if all_hits {
+                    let mut result = Vec::new();
+                    for _ in 0..repeat {
+                        let t = Instant::now();
+                        result = hugrt::batch::trace_all(&scene, &acc, &ray_list);
+                        times.push(t.elapsed().as_secs_f64());
+                    }
+                    let count = result.iter().map(Vec::len).sum::<usize>();
+                    (hugrt::batch::encode_all_hits(&result), count)
+                } else {
+                    let mut result = vec![None; ray_list.len()];
+                    for _ in 0..repeat {
+                        let t = Instant::now();
+                        hugrt::batch::trace_into(&scene, &acc, &ray_list, any_hit, &mut result);
+                        times.push(t.elapsed().as_secs_f64());
+                    }
+                    let encoded = match hit_format {
+                        HitFormat::Basic => hugrt::batch::encode_hits(&result),
+                        HitFormat::Full => {
+                            hugrt::batch::encode_full_hits(&scene, &ray_list, &result)
+                        }
+                    };
+                    (encoded, result.iter().filter(|h| h.is_some()).count())
                 };
+                let trace_s = bench::median(times);
                 std::fs::write(&hits, encoded)
                     .with_context(|| format!("writing {}", hits.display()))?;
-                let hit_count = result.iter().filter(|h| h.is_some()).count();
                 say!(
                     "build {:.1} ms, trace {:.1} ms, {} rays, {} hits, {:.2} Mrays/s",
                     build_s * 1e3,
@@ -554,7 +578,7 @@ fn run(cli: Cli) -> Result<()> {
                     ray_list.len() as f64 / trace_s.max(1e-9) / 1e6
                 );
                 if counters {
-                    let c = hugrt::batch::count(&scene, &acc, &ray_list, any_hit);
+                    let c = hugrt::batch::count(&scene, &acc, &ray_list, query);
                     print_counters(&c, ray_list.len() as u64)?;
                 }
                 Ok(())

@@ -173,6 +173,40 @@ fn trace_writes_the_embree_peer_hits_format() {
         "--any-hit",
     ]);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    // Every hit: per ray a count, then (t, primitive) pairs in order of t; the first of them
+    // is the closest hit.
+    let all = dir.path().join("all.hits");
+    let all_args = [
+        "trace",
+        &fx,
+        "--rays",
+        rays.to_str().unwrap(),
+        "--hits",
+        all.to_str().unwrap(),
+        "--all-hits",
+    ];
+    let o = hugrt(&all_args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let bytes = std::fs::read(&all).unwrap();
+    let word = |k: usize| <[u8; 4]>::try_from(&bytes[4 * k..4 * k + 4]).unwrap();
+    let mut k = 0;
+    for want in closest {
+        let n = u32::from_le_bytes(word(k)) as usize;
+        let pairs: Vec<(f32, u32)> = (0..n)
+            .map(|i| {
+                let w = k + 1 + 2 * i;
+                (f32::from_le_bytes(word(w)), u32::from_le_bytes(word(w + 1)))
+            })
+            .collect();
+        assert_eq!(pairs.first().copied().unwrap_or((inf, u32::MAX)), *want);
+        assert!(pairs.windows(2).all(|p| p[0].0 <= p[1].0), "{pairs:?}");
+        k += 1 + 2 * n;
+    }
+    assert_eq!(4 * k, bytes.len(), "nothing after the last ray's hits");
+    let o = hugrt(&[&all_args[..], &["--any-hit"]].concat());
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let o = hugrt(&[&all_args[..], &["--hit-format", "full"]].concat());
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
 }
 
 #[test]

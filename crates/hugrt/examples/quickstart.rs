@@ -20,5 +20,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let blocked = accel.any_hit(&scene, &ray, &mut NoCounters).is_some();
     println!("blocked: {blocked}");
+    // Every hit in order of t, each primitive once: through the shared diagonal, both triangles.
+    let down = Ray::new(Vec3::new(0.5, 0.5, 1.0), -Vec3::Z, 0.0, f32::INFINITY);
+    for hit in accel.all_hits(&scene, &down, &mut NoCounters) {
+        println!(
+            "through the diagonal: triangle {} at t = {}",
+            hit.prim, hit.t
+        );
+    }
     Ok(())
 }

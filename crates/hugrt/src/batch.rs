@@ -4,7 +4,9 @@
 //! (`0xFFFFFFFF` on a miss). For any-hit queries `t` is 1.0 and the index 0 when the ray is
 //! blocked, as embree-peer writes them. The full hits format ([`encode_full_hits`]) adds the
 //! barycentrics and the geometric normal of each closest hit: per ray `f32 t`, `u32` index,
-//! `f32 u, v`, `f32 nx, ny, nz` (28 bytes; a miss is +inf, `0xFFFFFFFF` and zeros).
+//! `f32 u, v`, `f32 nx, ny, nz` (28 bytes; a miss is +inf, `0xFFFFFFFF` and zeros). The
+//! all-hits format ([`encode_all_hits`]) holds per ray a `u32` count, then that many pairs
+//! `f32 t`, `u32` index in order of `t` (ties by index), records of varying length.
 
 use crate::accel::{AnyAccel, Hit, NoCounters, Primitives, RayCounters};
 use crate::geometry::{Ray, Vec3};
@@ -90,6 +92,41 @@ pub fn encode_full_hits<P: Primitives>(prims: &P, rays: &[Ray], hits: &[Option<H
     records.concat()
 }
 
+/// Which query a batch runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Query {
+    /// The nearest hit ([`AnyAccel::closest_hit`]).
+    Closest,
+    /// Whether anything is hit ([`AnyAccel::any_hit`]).
+    Any,
+    /// Every hit ([`AnyAccel::all_hits`]).
+    All,
+}
+
+/// Every hit of every ray, in order of `t` ([`AnyAccel::all_hits`]), on the current rayon
+/// pool.
+pub fn trace_all<P: Primitives>(prims: &P, accel: &AnyAccel, rays: &[Ray]) -> Vec<Vec<Hit>> {
+    rays.par_iter()
+        .with_min_len(256)
+        .map(|r| accel.all_hits(prims, r, &mut NoCounters))
+        .collect()
+}
+
+/// Every ray's hits in the all-hits format (module documentation).
+pub fn encode_all_hits(hits: &[Vec<Hit>]) -> Vec<u8> {
+    let pairs: usize = hits.iter().map(Vec::len).sum();
+    let mut out = Vec::with_capacity(4 * hits.len() + HIT_BYTES * pairs);
+    for ray in hits {
+        let n = u32::try_from(ray.len()).expect("fewer than 2^32 hits a ray");
+        out.extend_from_slice(&n.to_le_bytes());
+        for h in ray {
+            out.extend_from_slice(&h.t.to_le_bytes());
+            out.extend_from_slice(&h.prim.to_le_bytes());
+        }
+    }
+    out
+}
+
 /// Traces every ray on the current rayon pool. Any-hit results are reported as
 /// `Hit { t: 1.0, prim: 0 }`.
 pub fn trace<P: Primitives>(
@@ -131,22 +168,28 @@ pub fn trace_into<P: Primitives>(
         });
 }
 
-/// The traversal counters of a batch of closest-hit (or any-hit) queries, summed over the
-/// rays: the papers' #pit, #pi, #bbi and #vt per hierarchy level. A separate pass, so that
-/// [`trace`] is timed without them.
+/// The traversal counters of a batch of queries, summed over the rays: the papers' #pit,
+/// #pi, #bbi and #vt per hierarchy level. A separate pass, so that [`trace`] is timed without
+/// them.
 pub fn count<P: Primitives>(
     prims: &P,
     accel: &AnyAccel,
     rays: &[Ray],
-    any_hit: bool,
+    query: Query,
 ) -> RayCounters {
     rays.par_iter()
         .with_min_len(256)
         .fold(RayCounters::default, |mut c, r| {
-            if any_hit {
-                accel.any_hit(prims, r, &mut c);
-            } else {
-                accel.closest_hit(prims, r, &mut c);
+            match query {
+                Query::Closest => {
+                    accel.closest_hit(prims, r, &mut c);
+                }
+                Query::Any => {
+                    accel.any_hit(prims, r, &mut c);
+                }
+                Query::All => {
+                    accel.for_each_hit(prims, r, &mut c, |_| std::ops::ControlFlow::Continue(()))
+                }
             }
             c
         })

@@ -237,7 +237,7 @@ pub fn bench_scene(
                     trace_into(scene, &accel, &rays, false, &mut answers);
                     secs.push(t.elapsed().as_secs_f64());
                 }
-                let counters = count(scene, &accel, &rays, false);
+                let counters = count(scene, &accel, &rays, crate::batch::Query::Closest);
                 let hits = answers.iter().filter(|h| h.is_some()).count() as u64;
                 let differences = match &reference {
                     Some(Reference::Hits(r)) => differing_hits(r, &answers),

@@ -24,7 +24,7 @@
 //!    ([`Subdivision`], the recursive grid's rule), down to `depth` levels below the
 //!    clusters' grids.
 //!
-//! Every grid is walked with one ray state ([`GridHierarchy::walk`]: nearest hit, mailbox),
+//! Every grid is walked with one ray state ([`GridHierarchy::walk`]: the hit sink, mailbox),
 //! so an object tested in one sub-voxel grid is not tested again by its neighbour.
 //!
 //! Defaults, by measurement (`docs/measurements.md`, "The rival grids"): SPD rendering of
@@ -37,9 +37,9 @@
 
 use super::grid::{PRUNE_KEY, SIMD_KEY, store_with_boxes};
 use super::hierarchy::{GridHierarchy, GridPlan, LevelView, Prune, Resolution, Subdivision};
-use super::store::{Nearest, finite};
+use super::store::finite;
 use super::{
-    Accel, CellCensus, Counters, Hit, Mailbox, Primitives, Spec, SpecError, StructureStats,
+    Accel, CellCensus, Counters, HitSink, Mailbox, Primitives, Spec, SpecError, StructureStats,
 };
 use crate::geometry::{Aabb, PreparedRay, Ray};
 
@@ -274,18 +274,22 @@ impl Accel for AdaptiveGrid {
         })
     }
 
-    fn query<P: Primitives, C: Counters, const ANY_HIT: bool>(
+    fn query<P: Primitives, C: Counters, S: HitSink>(
         &self,
         prims: &P,
         ray: &Ray,
+        sink: &mut S,
         counters: &mut C,
-    ) -> Option<Hit> {
-        let root = self.nodes.first()?;
+    ) {
+        let Some(root) = self.nodes.first() else {
+            return;
+        };
         let pr = PreparedRay::new(ray);
-        let mut near = Nearest::new(ray.tmax);
         let mut mail = Mailbox::default();
         counters.box_test(0);
-        let (t, _) = root.bounds.intersect(&pr, ray.tmin, near.t)?;
+        let Some((t, _)) = root.bounds.intersect(&pr, ray.tmin, sink.tmax()) else {
+            return;
+        };
         // Depth of a median split tree is at most log2(grids) + 1 < 33.
         let mut stack = [(0u32, 0f32); 64];
         stack[0] = (0, t);
@@ -293,24 +297,26 @@ impl Accel for AdaptiveGrid {
         while top > 0 {
             top -= 1;
             let (k, entry) = stack[top];
-            if entry > near.t {
+            if entry > sink.tmax() {
                 continue;
             }
             let node = &self.nodes[k as usize];
             if node.right == LEAF {
-                if self.grids.walk::<P, C, ANY_HIT>(
-                    node.left, prims, &pr, ray.tmin, &mut near, &mut mail, counters,
-                ) {
-                    break;
+                if self
+                    .grids
+                    .walk::<P, C, S>(node.left, prims, &pr, ray.tmin, sink, &mut mail, counters)
+                {
+                    return;
                 }
                 continue;
             }
             counters.box_test(0);
             counters.box_test(0);
+            let tmax = sink.tmax();
             let hit = |c: u32| {
                 self.nodes[c as usize]
                     .bounds
-                    .intersect(&pr, ray.tmin, near.t)
+                    .intersect(&pr, ray.tmin, tmax)
                     .map(|(t, _)| (c, t))
             };
             match (hit(node.left), hit(node.right)) {
@@ -327,7 +333,6 @@ impl Accel for AdaptiveGrid {
                 (None, None) => {}
             }
         }
-        near.hit(&self.grids.store)
     }
 
     fn memory_bytes(&self) -> usize {

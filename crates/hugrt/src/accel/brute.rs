@@ -1,7 +1,7 @@
 //! Brute force: every primitive is tested against every ray. The reference every other
 //! structure is checked against, so it is kept as plain as possible.
 
-use super::{Accel, CellCensus, Counters, Hit, Primitives, Spec, SpecError, StructureStats};
+use super::{Accel, CellCensus, Counters, HitSink, Primitives, Spec, SpecError, StructureStats};
 use crate::geometry::{Aabb, PreparedRay, Ray};
 
 pub struct Brute {
@@ -23,28 +23,23 @@ impl Accel for Brute {
         })
     }
 
-    fn query<P: Primitives, C: Counters, const ANY_HIT: bool>(
+    fn query<P: Primitives, C: Counters, S: HitSink>(
         &self,
         prims: &P,
         ray: &Ray,
+        sink: &mut S,
         counters: &mut C,
-    ) -> Option<Hit> {
+    ) {
         let pr = PreparedRay::new(ray);
-        let mut best: Option<Hit> = None;
         for i in 0..self.len {
             counters.prim_test(0);
-            let tmax = best.map_or(ray.tmax, |b| b.t);
-            if let Some(t) = prims.intersect(i, &pr, ray.tmin, tmax) {
+            if let Some(t) = prims.intersect(i, &pr, ray.tmin, sink.tmax()) {
                 counters.prim_hit(0);
-                if Hit::improves(&best, t, i as u32) {
-                    best = Some(Hit { t, prim: i as u32 });
-                    if ANY_HIT {
-                        break;
-                    }
+                if sink.offer(t, || i as u32) {
+                    return;
                 }
             }
         }
-        best
     }
 
     fn memory_bytes(&self) -> usize {

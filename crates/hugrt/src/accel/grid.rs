@@ -12,7 +12,7 @@
 
 use super::hierarchy::{GridHierarchy, GridPlan, LevelView, Prune, Resolution};
 use super::{
-    Accel, CellCensus, Counters, Hit, PrimStore, Primitives, Spec, SpecError, StructureStats,
+    Accel, CellCensus, Counters, HitSink, PrimStore, Primitives, Spec, SpecError, StructureStats,
 };
 use crate::geometry::{Aabb, Ray};
 
@@ -112,13 +112,14 @@ impl Accel for Grid {
         })
     }
 
-    fn query<P: Primitives, C: Counters, const ANY_HIT: bool>(
+    fn query<P: Primitives, C: Counters, S: HitSink>(
         &self,
         prims: &P,
         ray: &Ray,
+        sink: &mut S,
         counters: &mut C,
-    ) -> Option<Hit> {
-        self.grids.query::<P, C, ANY_HIT>(prims, ray, counters)
+    ) {
+        self.grids.query(prims, ray, sink, counters);
     }
 
     fn memory_bytes(&self) -> usize {

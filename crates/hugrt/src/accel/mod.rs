@@ -1,9 +1,10 @@
 //! Spatial structures for ray shooting, all behind one interface.
 //!
 //! A structure is built from a [`Primitives`] set (bounding boxes, an exact box-overlap test,
-//! and "intersect primitive i") and answers closest-hit and any-hit queries. Queries are
-//! generic over the primitive set and over [`Counters`], so the traversal is monomorphised:
-//! no virtual call per primitive, and counting costs nothing when [`NoCounters`] is used.
+//! and "intersect primitive i") and answers closest-hit, any-hit and all-hits queries, one
+//! walk each offering its hits to a [`HitSink`]. Queries are generic over the primitive set,
+//! the sink and the [`Counters`], so the traversal is monomorphised: no virtual call per
+//! primitive, and counting costs nothing when [`NoCounters`] is used.
 //!
 //! Structures are chosen at run time by a spec string `name[:key=value,...]` ([`Spec`]).
 //! [`AnyAccel`] holds one of them; the list in `structures!` below is the single place that
@@ -22,6 +23,7 @@ pub mod hug;
 mod kdtree;
 mod mailbox;
 mod octree;
+mod query;
 mod rgrid;
 mod simd;
 mod sort;
@@ -39,6 +41,7 @@ pub use hug::Hug;
 pub use kdtree::KdTree;
 pub use mailbox::Mailbox;
 pub use octree::Octree;
+pub use query::{AnyHit, Closest, EveryHit, Hit, HitSink};
 pub use rgrid::RecursiveGrid;
 pub use spec::{Preset, Spec, SpecError};
 
@@ -59,7 +62,7 @@ pub mod presets {
         ("kdtree", KDTREE_HAVRAN),
     ];
 }
-pub use store::{Nearest, PrimStore};
+pub use store::PrimStore;
 
 use crate::geometry::{Aabb, Cone, PreparedRay, Ray, Sphere, Vec3};
 
@@ -93,26 +96,6 @@ pub trait Primitives: Sync {
     /// bit for bit the same hits. The default keeps every primitive opaque.
     fn kind(&self, _i: usize) -> PrimitiveKind {
         PrimitiveKind::Opaque
-    }
-}
-
-/// The nearest hit: parameter `t` along the ray and the primitive's index.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Hit {
-    pub t: f32,
-    pub prim: u32,
-}
-
-impl Hit {
-    /// Whether a hit of `prim` at `t` should replace `best`. Ties in `t` go to the lower index,
-    /// so every structure reports the same primitive (and renders the same image) whatever
-    /// order it tests candidates in.
-    #[inline]
-    pub fn improves(best: &Option<Hit>, t: f32, prim: u32) -> bool {
-        match best {
-            None => true,
-            Some(b) => t < b.t || (t == b.t && prim < b.prim),
-        }
     }
 }
 
@@ -221,8 +204,8 @@ impl StructureStats {
     }
 }
 
-/// One spatial structure. `ANY_HIT` selects any-hit (occlusion) at compile time: the query may
-/// stop at the first hit found, and then reports that one.
+/// One spatial structure: built from primitives, queried for the closest hit, any hit, or
+/// every hit along a ray.
 pub trait Accel: Sized + Send + Sync {
     /// Name used in specs.
     const NAME: &'static str;
@@ -231,15 +214,18 @@ pub trait Accel: Sized + Send + Sync {
 
     fn build<P: Primitives>(prims: &P, spec: &Spec) -> Result<Self, SpecError>;
 
-    /// The query itself, for a ray that [`Ray::is_traceable`]; callers go through
-    /// [`Accel::closest_hit`] and [`Accel::any_hit`], which check that once for every
+    /// The walk itself, for a ray that [`Ray::is_traceable`]: every primitive that may be hit
+    /// in `[ray.tmin, sink.tmax()]` is tested and its hit offered to `sink`, until the sink
+    /// says stop ([`HitSink`]). Callers go through [`Accel::closest_hit`], [`Accel::any_hit`],
+    /// [`Accel::for_each_hit`] and [`Accel::all_hits`], which check the ray once for every
     /// structure.
-    fn query<P: Primitives, C: Counters, const ANY_HIT: bool>(
+    fn query<P: Primitives, C: Counters, S: HitSink>(
         &self,
         prims: &P,
         ray: &Ray,
+        sink: &mut S,
         counters: &mut C,
-    ) -> Option<Hit>;
+    );
 
     /// The nearest hit in the ray's `[tmin, tmax]`; none for a ray that is not traceable.
     #[inline]
@@ -252,7 +238,9 @@ pub trait Accel: Sized + Send + Sync {
         if !ray.is_traceable() {
             return None;
         }
-        self.query::<P, C, false>(prims, ray, counters)
+        let mut sink = Closest::new(ray.tmax);
+        self.query(prims, ray, &mut sink, counters);
+        sink.hit()
     }
 
     /// Some hit in the ray's `[tmin, tmax]`, if there is any; none for a ray that is not
@@ -267,7 +255,48 @@ pub trait Accel: Sized + Send + Sync {
         if !ray.is_traceable() {
             return None;
         }
-        self.query::<P, C, true>(prims, ray, counters)
+        let mut sink = AnyHit::new(ray.tmax);
+        self.query(prims, ray, &mut sink, counters);
+        sink.hit()
+    }
+
+    /// Every hit in the ray's `[tmin, tmax]`, each primitive once (its nearest hit there),
+    /// handed to `f` in the order the walk finds them, which is front to back by cell or node
+    /// but not exactly by `t`; `f` returns [`ControlFlow::Break`](std::ops::ControlFlow) to
+    /// stop the walk. Nothing for a ray that is not traceable.
+    ///
+    /// The triangle test is watertight (Woop et al. 2013), so a ray through an edge or vertex
+    /// shared by several triangles hits at least one of them (usually each, at the same `t`),
+    /// and each is reported once: no gap and no repeat, which re-shooting from just past the
+    /// last hit cannot promise.
+    #[inline]
+    fn for_each_hit<P: Primitives, C: Counters, F: FnMut(Hit) -> std::ops::ControlFlow<()>>(
+        &self,
+        prims: &P,
+        ray: &Ray,
+        counters: &mut C,
+        f: F,
+    ) {
+        if ray.is_traceable() {
+            self.query(prims, ray, &mut EveryHit::new(ray.tmax, f), counters);
+        }
+    }
+
+    /// Every hit in the ray's `[tmin, tmax]`, each primitive once, in order of `t` (ties by
+    /// index): [`Accel::for_each_hit`] collected and sorted.
+    fn all_hits<P: Primitives, C: Counters>(
+        &self,
+        prims: &P,
+        ray: &Ray,
+        counters: &mut C,
+    ) -> Vec<Hit> {
+        let mut hits = Vec::new();
+        self.for_each_hit(prims, ray, counters, |h| {
+            hits.push(h);
+            std::ops::ControlFlow::Continue(())
+        });
+        hits.sort_by(Hit::order);
+        hits
     }
 
     /// Bytes held by the structure: its nodes or cells and its own copy of the primitives
@@ -325,6 +354,21 @@ macro_rules! structures {
                 &self, prims: &P, ray: &Ray, counters: &mut C,
             ) -> Option<Hit> {
                 match self { $(AnyAccel::$variant(a) => a.any_hit(prims, ray, counters),)* }
+            }
+
+            /// Every hit in the ray's `[tmin, tmax]` as the walk finds it ([`Accel::for_each_hit`]).
+            #[inline]
+            pub fn for_each_hit<P: Primitives, C: Counters, F: FnMut(Hit) -> std::ops::ControlFlow<()>>(
+                &self, prims: &P, ray: &Ray, counters: &mut C, f: F,
+            ) {
+                match self { $(AnyAccel::$variant(a) => a.for_each_hit(prims, ray, counters, f),)* }
+            }
+
+            /// Every hit in the ray's `[tmin, tmax]` in order of `t` ([`Accel::all_hits`]).
+            pub fn all_hits<P: Primitives, C: Counters>(
+                &self, prims: &P, ray: &Ray, counters: &mut C,
+            ) -> Vec<Hit> {
+                match self { $(AnyAccel::$variant(a) => a.all_hits(prims, ray, counters),)* }
             }
 
             pub fn memory_bytes(&self) -> usize {

@@ -16,7 +16,7 @@ use super::Preset;
 use super::grid::{PRUNE_KEY, SIMD_KEY};
 use super::hierarchy::{Prune, Resolution, Subdivision};
 use super::rgrid::{CutGrids, GUARD_KEY, MAX_DEPTH};
-use super::{Accel, Counters, Hit, Primitives, Spec, SpecError, StructureStats};
+use super::{Accel, Counters, HitSink, Primitives, Spec, SpecError, StructureStats};
 use crate::geometry::Ray;
 
 /// EG95's simulated octree (§1.2.3, §3).
@@ -81,13 +81,14 @@ impl Accel for Octree {
         })
     }
 
-    fn query<P: Primitives, C: Counters, const ANY_HIT: bool>(
+    fn query<P: Primitives, C: Counters, S: HitSink>(
         &self,
         prims: &P,
         ray: &Ray,
+        sink: &mut S,
         counters: &mut C,
-    ) -> Option<Hit> {
-        self.cut.grids.query::<P, C, ANY_HIT>(prims, ray, counters)
+    ) {
+        self.cut.grids.query(prims, ray, sink, counters);
     }
 
     fn memory_bytes(&self) -> usize {

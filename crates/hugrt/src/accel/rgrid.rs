@@ -30,7 +30,7 @@
 use super::grid::{PRUNE_KEY, SHIFT_KEY, SIMD_KEY, check_size};
 use super::hierarchy::{GridHierarchy, GridPlan, LevelView, Prune, Resolution, Subdivision};
 use super::{
-    Accel, CellCensus, Counters, Hit, Preset, PrimStore, Primitives, Spec, SpecError,
+    Accel, CellCensus, Counters, HitSink, Preset, PrimStore, Primitives, Spec, SpecError,
     StructureStats,
 };
 use crate::geometry::Ray;
@@ -204,13 +204,14 @@ impl Accel for RecursiveGrid {
         })
     }
 
-    fn query<P: Primitives, C: Counters, const ANY_HIT: bool>(
+    fn query<P: Primitives, C: Counters, S: HitSink>(
         &self,
         prims: &P,
         ray: &Ray,
+        sink: &mut S,
         counters: &mut C,
-    ) -> Option<Hit> {
-        self.cut.grids.query::<P, C, ANY_HIT>(prims, ray, counters)
+    ) {
+        self.cut.grids.query(prims, ray, sink, counters);
     }
 
     fn memory_bytes(&self) -> usize {

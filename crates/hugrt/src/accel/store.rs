@@ -21,7 +21,7 @@
 
 use super::Frame;
 use super::sort::radix_sort_high32;
-use super::{Counters, PrimitiveKind, Primitives, simd};
+use super::{Counters, HitSink, PrimitiveKind, Primitives, simd};
 use crate::geometry::{Aabb, Cone, PreparedRay, Sphere, Vec3, intersect_triangle};
 use rayon::prelude::*;
 
@@ -213,9 +213,9 @@ impl PrimStore {
     }
 
     /// Tests the triangles `batch[..n]` (`n ≤ 8`, the rest of `batch` repeating one of them)
-    /// eight at a time and offers their hits to `near` in lane order, as testing them one at
+    /// eight at a time and offers their hits to `sink` in lane order, as testing them one at
     /// a time would (lanes the kernel leaves to the scalar test get it). Counts `n` tests at
-    /// `level`. Returns `true` when `ANY_HIT` took a hit.
+    /// `level`. Returns `true` when the sink stops the walk.
     ///
     /// # Safety
     /// The processor must support AVX2 ([`simd::available`]), `9 · triangles().len()` must be
@@ -224,14 +224,14 @@ impl PrimStore {
     #[cfg(target_arch = "x86_64")]
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
-    pub(crate) unsafe fn offer_triangles8<P: Primitives, C: Counters, const ANY_HIT: bool>(
+    pub(crate) unsafe fn offer_triangles8<P: Primitives, C: Counters, S: HitSink>(
         &self,
         prims: &P,
         batch: &[u32; 8],
         n: usize,
         ray: &PreparedRay,
         tmin: f32,
-        near: &mut Nearest,
+        sink: &mut S,
         counters: &mut C,
         level: usize,
     ) -> bool {
@@ -245,13 +245,13 @@ impl PrimStore {
             let l = todo.trailing_zeros() as usize;
             todo &= todo - 1;
             let t = if lanes.scalar >> l & 1 != 0 {
-                self.intersect(prims, batch[l], ray, tmin, near.t)
+                self.intersect(prims, batch[l], ray, tmin, sink.tmax())
             } else {
-                lanes.hit(l, tmin, near.t)
+                lanes.hit(l, tmin, sink.tmax())
             };
             if let Some(t) = t {
                 counters.prim_hit(level);
-                if near.offer(self, t, batch[l]) && ANY_HIT {
+                if sink.offer(t, || self.id(batch[l])) {
                     return true;
                 }
             }
@@ -310,45 +310,6 @@ impl PrimStore {
             + self.spheres.capacity() * std::mem::size_of::<Sphere>()
             + self.cones.capacity() * std::mem::size_of::<Cone>()
             + self.ids.capacity() * 4
-    }
-}
-
-/// The nearest hit found so far during one query, in store terms: `t` starts at the ray's
-/// `tmax`, so "nothing nearer than `t`" is one comparison whether or not anything was hit.
-#[derive(Clone, Copy, Debug)]
-pub struct Nearest {
-    pub t: f32,
-    /// Store index of the hit, `u32::MAX` while there is none.
-    pub s: u32,
-}
-
-impl Nearest {
-    pub fn new(tmax: f32) -> Self {
-        Nearest {
-            t: tmax,
-            s: u32::MAX,
-        }
-    }
-
-    /// Records a hit of store entry `s` at `t <= self.t`. Ties in `t` go to the lower primitive
-    /// index, as in [`super::Hit::improves`], so the answer does not depend on the order in
-    /// which a structure tests its candidates. Returns whether the hit was taken.
-    #[inline(always)]
-    pub fn offer(&mut self, store: &PrimStore, t: f32, s: u32) -> bool {
-        let better =
-            t < self.t || self.s == u32::MAX || (t == self.t && store.id(s) < store.id(self.s));
-        if better {
-            self.t = t;
-            self.s = s;
-        }
-        better
-    }
-
-    pub fn hit(&self, store: &PrimStore) -> Option<super::Hit> {
-        (self.s != u32::MAX).then(|| super::Hit {
-            t: self.t,
-            prim: store.id(self.s),
-        })
     }
 }
 

@@ -32,7 +32,7 @@ mod spatial;
 
 use super::block::{self, Block, BlockRay, EMPTY_LANE, LANES};
 use super::store::{PrimStore, finite};
-use super::{Accel, CellCensus, Counters, Hit, Primitives, Spec, SpecError, StructureStats};
+use super::{Accel, CellCensus, Counters, HitSink, Primitives, Spec, SpecError, StructureStats};
 use crate::geometry::{Aabb, PreparedRay, Ray, Vec3, intersect_triangle};
 use glam::Vec4;
 use spatial::SpatialContext;
@@ -87,32 +87,6 @@ impl Node {
         ],
         children: [NO_CHILD; WIDTH],
     };
-}
-
-/// The nearest hit so far: its parameter and primitive index (`u32::MAX` while none). Ties in
-/// `t` go to the lower index, as [`super::Hit::improves`] has it, whatever the order of tests.
-struct Best {
-    t: f32,
-    prim: u32,
-}
-
-impl Best {
-    #[inline(always)]
-    fn offer(&mut self, t: f32, prim: u32) -> bool {
-        let better = t < self.t || self.prim == u32::MAX || (t == self.t && prim < self.prim);
-        if better {
-            self.t = t;
-            self.prim = prim;
-        }
-        better
-    }
-
-    fn hit(&self) -> Option<Hit> {
-        (self.prim != u32::MAX).then_some(Hit {
-            t: self.t,
-            prim: self.prim,
-        })
-    }
 }
 
 pub struct Bvh {
@@ -819,22 +793,22 @@ impl Bvh {
 
     /// Tests the four primitives of `b`: the triangles together ([`block::lanes`], the scalar
     /// test's bits lane by lane), the lanes it hands back and the lanes of other primitives
-    /// one at a time. Returns `true` when `ANY_HIT` found a hit.
+    /// one at a time. Returns `true` when the sink stops the walk.
     ///
     /// Lanes pass or fail against the nearest hit as it was when the block began, then offer
     /// their hits in lane order: the nearest of them is the one a test one at a time would
     /// keep, and a tie goes to the lower index either way.
     #[inline(always)]
-    fn test_block<P: Primitives, C: Counters, const ANY_HIT: bool>(
+    fn test_block<P: Primitives, C: Counters, S: HitSink>(
         &self,
         b: &Block,
         prims: &P,
         (ray, bray): &(PreparedRay, BlockRay),
         tmin: f32,
-        best: &mut Best,
+        sink: &mut S,
         counters: &mut C,
     ) -> bool {
-        let lanes = block::lanes(b, bray, tmin, best.t);
+        let lanes = block::lanes(b, bray, tmin, sink.tmax());
         for &id in &b.ids {
             if id != EMPTY_LANE {
                 counters.prim_test(0);
@@ -858,15 +832,18 @@ impl Bvh {
             } else if others >> l & 1 != 0 {
                 let s = id & !OTHER_LANE;
                 (
-                    self.store.intersect(prims, s, ray, tmin, best.t),
+                    self.store.intersect(prims, s, ray, tmin, sink.tmax()),
                     self.store.id(s),
                 )
             } else {
-                (intersect_triangle(ray, &b.triangle(l), tmin, best.t), id)
+                (
+                    intersect_triangle(ray, &b.triangle(l), tmin, sink.tmax()),
+                    id,
+                )
             };
             if let Some(t) = hit {
                 counters.prim_hit(0);
-                if best.offer(t, prim) && ANY_HIT {
+                if sink.offer(t, || prim) {
                     return true;
                 }
             }
@@ -989,20 +966,17 @@ impl Accel for Bvh {
         Ok(bvh)
     }
 
-    fn query<P: Primitives, C: Counters, const ANY_HIT: bool>(
+    fn query<P: Primitives, C: Counters, S: HitSink>(
         &self,
         prims: &P,
         ray: &Ray,
+        sink: &mut S,
         counters: &mut C,
-    ) -> Option<Hit> {
+    ) {
         // The triangle test's set-up (axis permutation and shear) waits for the first leaf:
         // most camera rays of a sparse scene reach none, and for them it was a fifth of the
         // time.
         let mut prepared: Option<(PreparedRay, BlockRay)> = None;
-        let mut near = Best {
-            t: ray.tmax,
-            prim: u32::MAX,
-        };
         let o = ray.origin.to_array();
         // As `PreparedRay::inv_dir` computes it.
         let inv = (Vec3::ONE / ray.dir).to_array();
@@ -1034,7 +1008,7 @@ impl Accel for Bvh {
         let mut current = (tmin, 0u32);
         loop {
             let (dist, child) = current;
-            if dist <= near.t {
+            if dist <= sink.tmax() {
                 counters.cell_visit(0);
                 if child & LEAF != 0 {
                     let start = (child & ((1 << LEAF_START_BITS) - 1)) as usize;
@@ -1044,16 +1018,14 @@ impl Accel for Bvh {
                         (pr, BlockRay::new(&pr))
                     });
                     for b in &self.blocks[start..start + count] {
-                        if self.test_block::<P, C, ANY_HIT>(
-                            b, prims, prepared, tmin, &mut near, counters,
-                        ) {
-                            return near.hit();
+                        if self.test_block(b, prims, prepared, tmin, sink, counters) {
+                            return;
                         }
                     }
                 } else {
                     let node = &self.nodes[child as usize];
                     let mut t0 = [tmin; WIDTH];
-                    let mut t1 = [near.t; WIDTH];
+                    let mut t1 = [sink.tmax(); WIDTH];
                     for a in 0..3 {
                         let (lo, hi) = (&node.bounds[near_row[a]], &node.bounds[far_row[a]]);
                         for k in 0..WIDTH {
@@ -1113,7 +1085,6 @@ impl Accel for Bvh {
             // depth bound behind `STACK` keeps it from panicking).
             current = unsafe { stack[top].assume_init() };
         }
-        near.hit()
     }
 
     fn memory_bytes(&self) -> usize {

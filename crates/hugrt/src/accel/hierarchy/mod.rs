@@ -15,7 +15,7 @@
 //!
 //! # The walk (EG95 §2.3.2)
 //! The 3D-DDA of Amanatides and Woo. In each cell: the objects are tested, then each grid
-//! referenced there is walked with the same ray state (nearest hit, mailbox), which is what
+//! referenced there is walked with the same ray state (the hit sink, mailbox), which is what
 //! carries one query through every level; then the walk stops if the nearest hit lies before
 //! the cell's exit. A sub-grid is walked once per ray, over its whole extent, the first time a
 //! cell references it (its own mailbox), so its answer is complete when the walk returns; the

@@ -3,7 +3,7 @@
 //! walked with the same ray state; see the module documentation for when it stops.
 
 use super::{GRID_TAG, GridHierarchy, NO_FRAME};
-use crate::accel::store::Nearest;
+use crate::accel::HitSink;
 use crate::accel::{Counters, Mailbox, Primitives};
 use crate::geometry::{PreparedRay, Vec3};
 
@@ -86,17 +86,17 @@ impl Axis {
 }
 
 impl GridHierarchy {
-    /// Walks grid `g` along `ray` from `tmin`, improving `near`; the grid's
-    /// `GridPlan::level` is where the counters count. Returns `true` when `ANY_HIT` found a
-    /// hit and the whole query may stop. The ray must be traceable ([`crate::geometry::Ray::is_traceable`]).
+    /// Walks grid `g` along `ray` from `tmin`, offering hits to `sink`; the grid's
+    /// `GridPlan::level` is where the counters count. Returns `true` when the sink stops the
+    /// whole query. The ray must be traceable ([`crate::geometry::Ray::is_traceable`]).
     #[allow(clippy::too_many_arguments)]
-    pub fn walk<P: Primitives, C: Counters, const ANY_HIT: bool>(
+    pub fn walk<P: Primitives, C: Counters, S: HitSink>(
         &self,
         g: u32,
         prims: &P,
         ray: &PreparedRay,
         tmin: f32,
-        near: &mut Nearest,
+        sink: &mut S,
         mail: &mut Mailbox,
         counters: &mut C,
     ) -> bool {
@@ -114,7 +114,7 @@ impl GridHierarchy {
         let ta = (h.min - o) * inv;
         let tb = (h.max - o) * inv;
         let t0 = tmin.max(ta.min(tb).max_element());
-        let t1 = near.t.min(ta.max(tb).min_element() * ROBUST_FAR);
+        let t1 = sink.tmax().min(ta.max(tb).min_element() * ROBUST_FAR);
         let entered = t0 <= t1;
         if !entered {
             return false;
@@ -148,7 +148,7 @@ impl GridHierarchy {
             )
         };
         let (mut ax, mut ay, mut az) = (axis(0), axis(1), axis(2));
-        let mut far = near.t;
+        let mut far = sink.tmax();
         loop {
             counters.cell_visit(level);
             if let Some((s, e)) = self.cells.range(idx as usize) {
@@ -156,12 +156,10 @@ impl GridHierarchy {
                 for &r in refs {
                     self.store.prefetch(r);
                 }
-                if self
-                    .test_cell::<P, C, ANY_HIT>(refs, prims, ray, tmin, near, mail, counters, level)
-                {
+                if self.test_cell::<P, C, S>(refs, prims, ray, tmin, sink, mail, counters, level) {
                     return true;
                 }
-                far = near.t;
+                far = sink.tmax();
             }
             // The next cell is across the nearest of the three planes ahead; the walk stops
             // when the nearest hit lies before it, or when it is the grid's boundary.
@@ -191,16 +189,16 @@ impl GridHierarchy {
 
     /// Tests the references of one cell: its objects (triangles first, eight at a time when
     /// [`Self::simd`] allows, in store order either way), then walks the grids it references.
-    /// Returns `true` when `ANY_HIT` found a hit.
+    /// Returns `true` when the sink stops the walk.
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
-    pub(super) fn test_cell<P: Primitives, C: Counters, const ANY_HIT: bool>(
+    pub(super) fn test_cell<P: Primitives, C: Counters, S: HitSink>(
         &self,
         refs: &[u32],
         prims: &P,
         ray: &PreparedRay,
         tmin: f32,
-        near: &mut Nearest,
+        sink: &mut S,
         mail: &mut Mailbox,
         counters: &mut C,
         level: usize,
@@ -226,8 +224,8 @@ impl GridHierarchy {
                     // i32 (`build`); every batched index is a triangle's (below
                     // `triangles.len()`, by the partition), the padding repeats one of them.
                     if unsafe {
-                        self.store.offer_triangles8::<P, C, ANY_HIT>(
-                            prims, &batch, n, ray, tmin, near, counters, level,
+                        self.store.offer_triangles8::<P, C, S>(
+                            prims, &batch, n, ray, tmin, sink, counters, level,
                         )
                     } {
                         return true;
@@ -240,7 +238,7 @@ impl GridHierarchy {
             if r & GRID_TAG != 0 {
                 let sub = r & !GRID_TAG;
                 if mail.first_grid_visit(sub)
-                    && self.walk::<P, C, ANY_HIT>(sub, prims, ray, tmin, near, mail, counters)
+                    && self.walk::<P, C, S>(sub, prims, ray, tmin, sink, mail, counters)
                 {
                     return true;
                 }
@@ -250,9 +248,9 @@ impl GridHierarchy {
                 continue;
             }
             counters.prim_test(level);
-            if let Some(t) = self.store.intersect(prims, r, ray, tmin, near.t) {
+            if let Some(t) = self.store.intersect(prims, r, ray, tmin, sink.tmax()) {
                 counters.prim_hit(level);
-                if near.offer(&self.store, t, r) && ANY_HIT {
+                if sink.offer(t, || self.store.id(r)) {
                     return true;
                 }
             }
@@ -260,28 +258,27 @@ impl GridHierarchy {
         false
     }
 
-    /// Closest or any hit of a traceable ray.
+    /// The query of a traceable ray ([`crate::accel::Accel::query`]).
     #[inline]
-    pub fn query<P: Primitives, C: Counters, const ANY_HIT: bool>(
+    pub fn query<P: Primitives, C: Counters, S: HitSink>(
         &self,
         prims: &P,
         ray: &crate::geometry::Ray,
+        sink: &mut S,
         counters: &mut C,
-    ) -> Option<crate::accel::Hit> {
+    ) {
         if self.store.is_empty() {
-            return None;
+            return;
         }
         let pr = PreparedRay::new(ray);
-        let mut near = Nearest::new(ray.tmax);
-        self.walk::<P, C, ANY_HIT>(
+        self.walk::<P, C, S>(
             0,
             prims,
             &pr,
             ray.tmin,
-            &mut near,
+            sink,
             &mut Mailbox::default(),
             counters,
         );
-        near.hit(&self.store)
     }
 }

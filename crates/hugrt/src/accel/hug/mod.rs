@@ -12,7 +12,7 @@
 //! 4. **inserting** each cluster's grid, largest levels first, into the cells of the deepest
 //!    grid that contains it, like an object (EG95 §2.3.1).
 //!
-//! The result is a hierarchy of grids (`GridHierarchy`); its walk carries one ray state (nearest hit, mailboxes
+//! The result is a hierarchy of grids (`GridHierarchy`); its walk carries one ray state (the hit sink, mailboxes
 //! for objects and for grids referenced from several cells) through every level (EG95
 //! §2.3.2), and is the same code as the uniform grid's.
 //!
@@ -46,7 +46,7 @@ pub use filter::Filter;
 use super::grid::{SHIFT_KEY, SIMD_KEY, store_with_boxes};
 use super::hierarchy::{GridHierarchy, LevelView, Prune};
 use super::{
-    Accel, CellCensus, Counters, Hit, Preset, Primitives, Spec, SpecError, StructureStats,
+    Accel, CellCensus, Counters, HitSink, Preset, Primitives, Spec, SpecError, StructureStats,
 };
 use crate::geometry::Ray;
 
@@ -464,13 +464,14 @@ impl Accel for Hug {
         })
     }
 
-    fn query<P: Primitives, C: Counters, const ANY_HIT: bool>(
+    fn query<P: Primitives, C: Counters, S: HitSink>(
         &self,
         prims: &P,
         ray: &Ray,
+        sink: &mut S,
         counters: &mut C,
-    ) -> Option<Hit> {
-        self.grids.query::<P, C, ANY_HIT>(prims, ray, counters)
+    ) {
+        self.grids.query(prims, ray, sink, counters);
     }
 
     fn memory_bytes(&self) -> usize {

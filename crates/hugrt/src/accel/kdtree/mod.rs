@@ -50,9 +50,10 @@
 mod layout;
 
 use super::sort::radix_sort_keys;
-use super::store::{Nearest, PrimStore, finite};
+use super::store::{PrimStore, finite};
 use super::{
-    Accel, CellCensus, Counters, Hit, Mailbox, Preset, Primitives, Spec, SpecError, StructureStats,
+    Accel, CellCensus, Counters, HitSink, Mailbox, Preset, Primitives, Spec, SpecError,
+    StructureStats,
 };
 use crate::geometry::{Aabb, PreparedRay, Ray};
 use layout::{Layout, Lines, Logical, NodeStore, Nodes, Visit};
@@ -419,18 +420,17 @@ impl KdTree {
     /// The near/far descent (module documentation) over one of the layouts.
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
-    fn walk<N: NodeStore, P: Primitives, C: Counters, const ANY_HIT: bool>(
+    fn walk<N: NodeStore, P: Primitives, C: Counters, S: HitSink>(
         &self,
         nodes: &N,
         prims: &P,
         ray: &Ray,
         pr: &PreparedRay,
-        t0: f32,
-        t1: f32,
+        (t0, t1): (f32, f32),
+        sink: &mut S,
         counters: &mut C,
-    ) -> Option<Hit> {
+    ) {
         let pr = *pr;
-        let mut near = Nearest::new(ray.tmax);
         let o = ray.origin.to_array();
         let d = ray.dir.to_array();
         let inv = pr.inv_dir.to_array();
@@ -441,7 +441,7 @@ impl KdTree {
         let mut top = 0;
         let (mut node, mut tn, mut tf) = (nodes.root(), t0, t1);
         loop {
-            if tn <= near.t {
+            if tn <= sink.tmax() {
                 counters.cell_visit(0);
                 let (start, count) = match nodes.visit(node, &self.refs) {
                     Visit::Leaf { start, count } => (start, count),
@@ -477,14 +477,14 @@ impl KdTree {
                         continue;
                     }
                     counters.prim_test(0);
-                    if let Some(t) = self.store.intersect(prims, r, &pr, ray.tmin, near.t) {
+                    if let Some(t) = self.store.intersect(prims, r, &pr, ray.tmin, sink.tmax()) {
                         counters.prim_hit(0);
-                        if near.offer(&self.store, t, r) && ANY_HIT {
-                            return near.hit(&self.store);
+                        if sink.offer(t, || self.store.id(r)) {
+                            return;
                         }
                     }
                 }
-                if near.t <= tf {
+                if sink.tmax() <= tf {
                     break;
                 }
             }
@@ -497,7 +497,6 @@ impl KdTree {
             // way down of a tree at most `MAX_DEPTH` deep keeps it from panicking).
             (node, tn, tf) = unsafe { stack[top].assume_init() };
         }
-        near.hit(&self.store)
     }
 
     /// Bytes of the nodes and leaf references, without the store.
@@ -625,26 +624,25 @@ impl Accel for KdTree {
         Ok(tree)
     }
 
-    fn query<P: Primitives, C: Counters, const ANY_HIT: bool>(
+    fn query<P: Primitives, C: Counters, S: HitSink>(
         &self,
         prims: &P,
         ray: &Ray,
+        sink: &mut S,
         counters: &mut C,
-    ) -> Option<Hit> {
+    ) {
         if self.refs.is_empty() {
-            return None;
+            return;
         }
         let pr = PreparedRay::new(ray);
         counters.box_test(0);
-        let (t0, t1) = self.bounds.intersect(&pr, ray.tmin, ray.tmax)?;
+        let Some(span) = self.bounds.intersect(&pr, ray.tmin, ray.tmax) else {
+            return;
+        };
         match &self.nodes {
-            Nodes::Lines(n) => self.walk::<_, P, C, ANY_HIT>(n, prims, ray, &pr, t0, t1, counters),
-            Nodes::Scattered(n) => {
-                self.walk::<_, P, C, ANY_HIT>(n, prims, ray, &pr, t0, t1, counters)
-            }
-            Nodes::Compact(n) => {
-                self.walk::<_, P, C, ANY_HIT>(n, prims, ray, &pr, t0, t1, counters)
-            }
+            Nodes::Lines(n) => self.walk(n, prims, ray, &pr, span, sink, counters),
+            Nodes::Scattered(n) => self.walk(n, prims, ray, &pr, span, sink, counters),
+            Nodes::Compact(n) => self.walk(n, prims, ray, &pr, span, sink, counters),
         }
     }
 
