@@ -23,7 +23,7 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::path::PathBuf;
 use std::time::Instant;
 
-const ACCEL_HELP: &str = "Spatial structure: NAME[:KEY=VALUE,...], e.g. hug, hug:preset=eg95 (the paper's algorithm; also hug:preset=scg97, rgrid:preset=eg95, octree:preset=eg95, kdtree:preset=havran), grid:density=20, brute";
+const ACCEL_HELP: &str = "Spatial structure: NAME[:KEY=VALUE,...], e.g. hug, hug:preset=eg95 (the paper's algorithm; also hug:preset=scg97, rgrid:preset=eg95, octree:preset=eg95, kdtree:preset=havran), grid:density=20, brute; `hugrt structures` lists every key";
 
 #[derive(Parser)]
 #[command(
@@ -161,6 +161,15 @@ enum Command {
         /// Worker threads (default: all cores).
         #[arg(long)]
         threads: Option<usize>,
+    },
+    /// List the structures and the keys of their specs: what each key accepts, its default and
+    /// what it does (`--json` for scripts).
+    Structures {
+        /// Only this structure.
+        name: Option<String>,
+        /// Print JSON instead of text.
+        #[arg(long)]
+        json: bool,
     },
     /// Measure structures on the same work: build and trace times with their spread, Mrays/s,
     /// memory, Havran's septet and triplet, the papers' counters per ray and level, and whether
@@ -678,6 +687,30 @@ fn run(cli: Cli) -> Result<()> {
                 }
                 Ok(())
             })
+        }
+        Command::Structures { name, json } => {
+            let names: Vec<&str> = match &name {
+                Some(n) if !STRUCTURES.contains(&n.as_str()) => bail!(
+                    "unknown structure '{n}'; valid structures: {}",
+                    STRUCTURES.join(", ")
+                ),
+                Some(n) => vec![n.as_str()],
+                None => STRUCTURES.to_vec(),
+            };
+            let table: Vec<(&str, Vec<hugrt::accel::KeyHelp>)> = names
+                .iter()
+                .map(|n| (*n, AnyAccel::keys(n).expect("a listed structure")))
+                .collect();
+            if json {
+                let j: serde_json::Map<String, serde_json::Value> = table
+                    .iter()
+                    .map(|(n, k)| Ok((n.to_string(), serde_json::to_value(k)?)))
+                    .collect::<Result<_>>()?;
+                say!("{}", serde_json::to_string_pretty(&j)?);
+            } else {
+                report::print_structures(&table)?;
+            }
+            Ok(())
         }
         Command::Bench {
             scenes,

@@ -1,4 +1,4 @@
-//! Text reports of `hugrt stats`: the scene's statistics (SCG97 Fig. 4) and the structure's,
+//! Text reports of `hugrt stats` and `hugrt structures`: the scene's statistics (SCG97 Fig. 4) and the structure's,
 //! with the per-level table of SCG97 §3 for grid hierarchies.
 
 use hugrt::accel::{GridLevelStats, StructureStats};
@@ -131,6 +131,31 @@ fn print_levels(levels: &[GridLevelStats]) -> anyhow::Result<()> {
             l.mu_g_v_nonempty,
             l.sigma_g_v_nonempty
         );
+    }
+    Ok(())
+}
+
+/// `hugrt structures`: each structure, then a line per key (name, what it accepts, default)
+/// with its help below.
+pub fn print_structures(table: &[(&str, Vec<hugrt::accel::KeyHelp>)]) -> anyhow::Result<()> {
+    for (k, (name, keys)) in table.iter().enumerate() {
+        if k > 0 {
+            say!();
+        }
+        if keys.is_empty() {
+            say!("{name}: no keys");
+            continue;
+        }
+        say!("{name}:KEY=VALUE,...");
+        for key in keys {
+            say!(
+                "  {:<12} {}  (default {})",
+                key.name,
+                key.accepts,
+                key.default
+            );
+            say!("               {}", key.help);
+        }
     }
     Ok(())
 }

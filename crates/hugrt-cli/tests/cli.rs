@@ -628,3 +628,25 @@ fn reproduce_rtnews_runs_on_the_spd_scenes_or_says_they_are_missing() {
         assert_eq!(r["spec"], "grid:density=1");
     }
 }
+
+#[test]
+fn structures_lists_every_key_with_its_default() {
+    let o = hugrt(&["structures"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = stdout(&o);
+    for name in hugrt::accel::STRUCTURES {
+        assert!(out.contains(name), "{name}: {out}");
+    }
+    assert!(out.contains("leaf         1..16  (default 8)"), "{out}");
+    let o = hugrt(&["structures", "hug", "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let keys = j["hug"].as_array().unwrap();
+    assert!(
+        keys.iter()
+            .any(|k| k["name"] == "crowd" && k["default"] == "64")
+    );
+    let o = hugrt(&["structures", "quadtree"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("brute, grid"), "{}", stderr(&o));
+}

@@ -1,6 +1,6 @@
 //! Build a structure over triangles and shoot rays at it: `cargo run --release --example quickstart`.
 
-use hugrt::accel::{AnyAccel, NoCounters};
+use hugrt::accel::{Accel, AnyAccel, Bvh, BvhSettings, NoCounters};
 use hugrt::geometry::{Ray, Vec3};
 use hugrt::scene::Scene;
 
@@ -28,5 +28,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             hit.prim, hit.t
         );
     }
+    // Typed settings, no spec string: the defaults are `Default`'s.
+    let bvh = Bvh::with_settings(
+        &scene,
+        &BvhSettings {
+            leaf: 4,
+            ..Default::default()
+        },
+    )?;
+    println!("bvh: {:?}", bvh.closest_hit(&scene, &ray, &mut NoCounters));
     Ok(())
 }

@@ -35,23 +35,45 @@
 //! 32` on the kitchen). Where the adaptive grid loses to the HUG (1.7× slower, geometric
 //! mean) is the BVH over many small clusters: 14–45 box tests per ray.
 
-use super::grid::{PRUNE_KEY, SIMD_KEY, store_with_boxes};
+use super::grid::{PRUNE_HELP, SIMD_HELP, store_with_boxes};
 use super::hierarchy::{GridHierarchy, GridPlan, LevelView, Prune, Resolution, Subdivision};
+use super::settings::{Key, Settings, key};
 use super::store::finite;
-use super::{
-    Accel, CellCensus, Counters, HitSink, Mailbox, Primitives, Spec, SpecError, StructureStats,
-};
+use super::{Accel, CellCensus, Counters, HitSink, Mailbox, Primitives, SpecError, StructureStats};
 use crate::geometry::{Aabb, PreparedRay, Ray};
 
-/// The settings of an adaptive grid (the keys of `agrid`).
-#[derive(Clone, Copy, Debug)]
+/// The settings of an adaptive grid (`agrid:f=..,m=..`, ...).
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct AdaptiveSettings {
+    /// Merge two candidates when their union's box area is at most `f` times the sum of
+    /// theirs.
     pub f: f32,
+    /// Largest cluster diagonal as a share of the scene's.
     pub m: f32,
+    /// Clusters of fewer objects go to the one orphan grid.
     pub orphans: usize,
+    /// Cells per object in every grid.
     pub density: f32,
+    /// A cell referencing more objects gets a sub-voxel grid.
     pub maxp: usize,
-    pub depth: u32,
+    /// Levels of sub-voxel grids below the clusters' grids (at most 15).
+    pub depth: usize,
+    pub prune: Prune,
+    /// Triangles tested eight at a time where AVX2 is present.
+    pub simd: bool,
+}
+
+impl Settings for AdaptiveSettings {
+    const KEYS: &'static [Key<Self>] = &[
+        key!("f", f: f32, 0.0..=1000.0, "merge two candidates when their union's box area is at most f times the sum of theirs"),
+        key!("m", m: f32, 0.0..=1.0, "largest cluster diagonal as a share of the scene's"),
+        key!("orphans", orphans: usize, 1..=1 << 30, "clusters of fewer objects go to the one orphan grid"),
+        key!("density", density: f32, 0.001..=1000.0, "cells per object in every grid"),
+        key!("maxp", maxp: usize, 1..=1_000_000, "a cell referencing more objects gets a sub-voxel grid"),
+        key!("depth", depth: usize, 0..=15, "levels of sub-voxel grids below the clusters' grids"),
+        key!("prune", prune: Prune, (), PRUNE_HELP),
+        key!("simd", simd: bool, (), SIMD_HELP),
+    ];
 }
 
 impl Default for AdaptiveSettings {
@@ -63,6 +85,8 @@ impl Default for AdaptiveSettings {
             density: 1.0,
             maxp: 16,
             depth: 1,
+            prune: Prune::None,
+            simd: true,
         }
     }
 }
@@ -169,54 +193,18 @@ impl AdaptiveGrid {
         nodes[at as usize].right = right;
         at
     }
-
-    fn settings(spec: &Spec) -> Result<AdaptiveSettings, SpecError> {
-        let d = AdaptiveSettings::default();
-        Ok(AdaptiveSettings {
-            f: spec.f32_in("f", d.f, 0.0, 1000.0)?,
-            m: spec.f32_in("m", d.m, 0.0, 1.0)?,
-            orphans: spec.usize_in("orphans", d.orphans, 1, 1 << 30)?,
-            density: spec.f32_in("density", d.density, 0.001, 1000.0)?,
-            maxp: spec.usize_in("maxp", d.maxp, 1, 1_000_000)?,
-            depth: spec.usize_in("depth", d.depth as usize, 0, 15)? as u32,
-        })
-    }
 }
 
 impl Accel for AdaptiveGrid {
     const NAME: &'static str = "agrid";
-    const KEYS: &'static [(&'static str, &'static str)] = &[
-        (
-            "f",
-            "merge two candidates when their union's box area is at most f times the sum of theirs, 0..1000 (default 1.5)",
-        ),
-        (
-            "m",
-            "largest cluster diagonal as a share of the scene's, 0..1 (default 0.25)",
-        ),
-        (
-            "orphans",
-            "clusters of fewer objects go to the one orphan grid (default 8)",
-        ),
-        (
-            "density",
-            "cells per object in every grid, 0.001..1000 (default 1)",
-        ),
-        (
-            "maxp",
-            "a cell referencing more objects gets a sub-voxel grid, 1..1000000 (default 16)",
-        ),
-        (
-            "depth",
-            "levels of sub-voxel grids below the clusters' grids, 0..15 (default 1)",
-        ),
-        PRUNE_KEY,
-        SIMD_KEY,
-    ];
+    type Settings = AdaptiveSettings;
 
-    fn build<P: Primitives>(prims: &P, spec: &Spec) -> Result<Self, SpecError> {
-        let settings = Self::settings(spec)?;
-        let prune = Prune::from_spec(spec, Prune::None)?;
+    fn build_checked<P: Primitives>(
+        prims: &P,
+        settings: &AdaptiveSettings,
+    ) -> Result<Self, SpecError> {
+        let settings = *settings;
+        let prune = settings.prune;
         let n = prims.len();
         let (store, boxes) = store_with_boxes(prims)?;
         let order: Vec<u32> = (0..n as u32)
@@ -254,13 +242,12 @@ impl Accel for AdaptiveGrid {
         }
         let sub = Subdivision {
             maxp: settings.maxp,
-            max_depth: settings.depth,
+            max_depth: settings.depth as u32,
             // The adaptive grid's sub-voxel grids keep hugrt's guard (`Subdivision`).
             guard: true,
             cells: per_object,
         };
-        let simd = spec.bool("simd", true)?;
-        let grids = GridHierarchy::build(prims, store, &plans, prune, Some(sub), simd)?;
+        let grids = GridHierarchy::build(prims, store, &plans, prune, Some(sub), settings.simd)?;
         let tops: Vec<(Aabb, u32)> = (0..plans.len())
             .map(|g| (grids.grid_box(g), g as u32))
             .collect();

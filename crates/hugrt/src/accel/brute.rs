@@ -1,7 +1,9 @@
 //! Brute force: every primitive is tested against every ray. The reference every other
 //! structure is checked against, so it is kept as plain as possible.
 
-use super::{Accel, CellCensus, Counters, HitSink, Primitives, Spec, SpecError, StructureStats};
+use super::{
+    Accel, CellCensus, Counters, HitSink, NoSettings, Primitives, SpecError, StructureStats,
+};
 use crate::geometry::{Aabb, PreparedRay, Ray};
 
 pub struct Brute {
@@ -12,9 +14,9 @@ pub struct Brute {
 
 impl Accel for Brute {
     const NAME: &'static str = "brute";
-    const KEYS: &'static [(&'static str, &'static str)] = &[];
+    type Settings = NoSettings;
 
-    fn build<P: Primitives>(prims: &P, _spec: &Spec) -> Result<Self, SpecError> {
+    fn build_checked<P: Primitives>(prims: &P, _: &NoSettings) -> Result<Self, SpecError> {
         let b = (0..prims.len()).fold(Aabb::EMPTY, |b, i| b.union(&prims.bounds(i)));
         let volume = if b.is_empty() { 0.0 } else { b.volume() as f64 };
         Ok(Brute {

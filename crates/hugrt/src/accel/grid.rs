@@ -11,8 +11,9 @@
 //!   once it lies inside the current cell (see [`GridHierarchy::walk`]).
 
 use super::hierarchy::{GridHierarchy, GridPlan, LevelView, Prune, Resolution};
+use super::settings::{Key, Settings, key};
 use super::{
-    Accel, CellCensus, Counters, HitSink, PrimStore, Primitives, Spec, SpecError, StructureStats,
+    Accel, CellCensus, Counters, HitSink, PrimStore, Primitives, SpecError, StructureStats,
 };
 use crate::geometry::{Aabb, Ray};
 
@@ -24,30 +25,51 @@ use crate::geometry::{Aabb, Ray};
 /// floor (balls, tree) 16 and more, which is the case the HUG is built for.
 pub const DEFAULT_DENSITY: f32 = 2.0;
 
+/// The uniform grid's settings (`grid:density=..,prune=..,shift=..,simd=..`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GridSettings {
+    /// Cells per primitive (default 2, chosen by measurement; RTNews used 1 and 20).
+    pub density: f32,
+    /// Which objects are referenced only from the cells they touch.
+    pub prune: Prune,
+    /// Cell planes moved off the box's round fractions (hugrt's, not the papers').
+    pub shift: bool,
+    /// Triangles tested eight at a time where AVX2 is present.
+    pub simd: bool,
+}
+
+impl Default for GridSettings {
+    fn default() -> Self {
+        GridSettings {
+            density: DEFAULT_DENSITY,
+            prune: Prune::None,
+            shift: true,
+            simd: true,
+        }
+    }
+}
+
+/// The help of the keys that several grid structures share.
+pub(crate) const PRUNE_HELP: &str = "true: reference a cell only if the primitive itself touches it; large: only for objects whose box spans 16 cells or more";
+pub(crate) const SHIFT_HELP: &str = "true: cell planes moved off the box's round fractions, one more cell along axes of 4 or more (hugrt's, not the papers')";
+pub(crate) const SIMD_HELP: &str =
+    "false: test a cell's triangles one at a time even where AVX2 is present";
+
+impl Settings for GridSettings {
+    const KEYS: &'static [Key<Self>] = &[
+        key!("density", density: f32, 0.001..=1000.0, "cells per primitive (RTNews used 1 and 20)"),
+        key!("prune", prune: Prune, (), PRUNE_HELP),
+        key!("shift", shift: bool, (), SHIFT_HELP),
+        key!("simd", simd: bool, (), SIMD_HELP),
+    ];
+}
+
 pub struct Grid {
     grids: GridHierarchy,
     prims: usize,
     density: f32,
     prune: Prune,
 }
-
-/// The `prune` key of the grid structures that bin boxes by default.
-pub(crate) const PRUNE_KEY: (&str, &str) = (
-    "prune",
-    "true: reference a cell only if the primitive itself touches it; large: only for objects whose box spans 16 cells or more (default false)",
-);
-
-/// The `shift` key of the structures whose grids are planned over their items' box.
-pub(crate) const SHIFT_KEY: (&str, &str) = (
-    "shift",
-    "true: cell planes moved off the box's round fractions, one more cell along axes of 4 or more (hugrt's, not the papers'; default true)",
-);
-
-/// The `simd` key of every grid structure.
-pub(crate) const SIMD_KEY: (&str, &str) = (
-    "simd",
-    "false: test a cell's triangles one at a time even where AVX2 is present (default true)",
-);
 
 /// The store of `prims` and the box of each of its entries, for the builds that plan from
 /// boxes; fails for scenes too large ([`check_size`]).
@@ -76,19 +98,15 @@ pub(crate) fn check_size(n: usize) -> Result<(), SpecError> {
 
 impl Accel for Grid {
     const NAME: &'static str = "grid";
-    const KEYS: &'static [(&'static str, &'static str)] = &[
-        (
-            "density",
-            "cells per primitive, 0.001..1000 (default 2; RTNews used 1 and 20)",
-        ),
-        PRUNE_KEY,
-        SHIFT_KEY,
-        SIMD_KEY,
-    ];
+    type Settings = GridSettings;
 
-    fn build<P: Primitives>(prims: &P, spec: &Spec) -> Result<Self, SpecError> {
-        let density = spec.f32_in("density", DEFAULT_DENSITY, 0.001, 1000.0)?;
-        let prune = Prune::from_spec(spec, Prune::None)?;
+    fn build_checked<P: Primitives>(prims: &P, settings: &GridSettings) -> Result<Self, SpecError> {
+        let GridSettings {
+            density,
+            prune,
+            shift,
+            simd,
+        } = *settings;
         let n = prims.len();
         check_size(n)?;
         let store = PrimStore::build(prims);
@@ -100,9 +118,8 @@ impl Accel for Grid {
             depth: 0,
             level: 0,
             scene_box: true,
-            shift: spec.bool("shift", true)?,
+            shift,
         };
-        let simd = spec.bool("simd", true)?;
         let grids = GridHierarchy::build(prims, store, &[plan], prune, None, simd)?;
         Ok(Grid {
             grids,

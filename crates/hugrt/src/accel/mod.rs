@@ -25,24 +25,26 @@ mod mailbox;
 mod octree;
 mod query;
 mod rgrid;
+pub mod settings;
 mod simd;
 mod sort;
 mod spec;
 mod store;
 
-pub use agrid::AdaptiveGrid;
+pub use agrid::{AdaptiveGrid, AdaptiveSettings};
 pub use brute::Brute;
-pub use bvh::Bvh;
+pub use bvh::{Bvh, BvhSettings};
 pub use counters::{Counters, LevelCounts, MAX_LEVELS, NoCounters, RayCounters};
 pub(crate) use frame::Frame;
-pub use grid::Grid;
-pub use hierarchy::{GridLevelStats, LevelView, cubical_resolution};
-pub use hug::Hug;
-pub use kdtree::KdTree;
+pub use grid::{Grid, GridSettings};
+pub use hierarchy::{GridLevelStats, LevelView, Prune, cubical_resolution};
+pub use hug::{Hug, HugSettings};
+pub use kdtree::{KdTree, KdTreeSettings, Layout as KdTreeLayout, SplitRule as KdTreeSplit};
 pub use mailbox::Mailbox;
-pub use octree::Octree;
+pub use octree::{Octree, OctreeSettings};
 pub use query::{AnyHit, Closest, EveryHit, Hit, HitSink};
-pub use rgrid::RecursiveGrid;
+pub use rgrid::{RecursiveGrid, RecursiveGridSettings};
+pub use settings::{KeyHelp, NoSettings, Settings};
 pub use spec::{Preset, Spec, SpecError};
 
 /// The papers' algorithms as structure settings (a structure's `preset` key), each value with
@@ -209,10 +211,31 @@ impl StructureStats {
 pub trait Accel: Sized + Send + Sync {
     /// Name used in specs.
     const NAME: &'static str;
-    /// Keys this structure accepts, with a one-line description each (shown in errors).
-    const KEYS: &'static [(&'static str, &'static str)];
+    /// The structure's settings: its defaults ([`Default`]) and the table of its spec's keys.
+    type Settings: Settings;
 
-    fn build<P: Primitives>(prims: &P, spec: &Spec) -> Result<Self, SpecError>;
+    /// Builds the structure with typed settings, e.g. `Bvh::with_settings(&scene,
+    /// &BvhSettings { leaf: 4, ..Default::default() })`: an error names a value out of its
+    /// key's range ([`Settings::check`]) or a scene the structure cannot hold.
+    fn with_settings<P: Primitives>(
+        prims: &P,
+        settings: &Self::Settings,
+    ) -> Result<Self, SpecError> {
+        settings.check()?;
+        Self::build_checked(prims, settings)
+    }
+
+    /// Builds the structure with the settings a spec's keys give ([`Settings::from_spec`]).
+    fn build<P: Primitives>(prims: &P, spec: &Spec) -> Result<Self, SpecError> {
+        Self::build_checked(prims, &Self::Settings::from_spec(spec)?)
+    }
+
+    /// The build itself, with settings already checked: what [`Accel::with_settings`] and
+    /// [`Accel::build`] call.
+    fn build_checked<P: Primitives>(
+        prims: &P,
+        settings: &Self::Settings,
+    ) -> Result<Self, SpecError>;
 
     /// The walk itself, for a ray that [`Ray::is_traceable`]: every primitive that may be hit
     /// in `[ray.tmin, sink.tmax()]` is tested and its hit offered to `sink`, until the sink
@@ -322,7 +345,6 @@ macro_rules! structures {
             pub fn build<P: Primitives>(prims: &P, spec: &str) -> Result<Self, SpecError> {
                 let spec = Spec::parse(spec)?;
                 $(if spec.name == <$ty as Accel>::NAME {
-                    spec.check_keys(<$ty as Accel>::KEYS)?;
                     return Ok(AnyAccel::$variant(<$ty as Accel>::build(prims, &spec)?));
                 })*
                 Err(SpecError::UnknownStructure {
@@ -335,9 +357,29 @@ macro_rules! structures {
                 match self { $(AnyAccel::$variant(_) => <$ty as Accel>::NAME,)* }
             }
 
-            /// Keys accepted by the named structure.
-            pub fn keys(name: &str) -> Option<&'static [(&'static str, &'static str)]> {
-                $(if name == <$ty as Accel>::NAME { return Some(<$ty as Accel>::KEYS); })*
+            /// Every key of a spec's structure with the value the spec gives it (its preset's or
+            /// the default where the spec is silent): what is built, in full.
+            pub fn resolve(spec: &str) -> Result<Vec<(&'static str, String)>, SpecError> {
+                let spec = Spec::parse(spec)?;
+                $(if spec.name == <$ty as Accel>::NAME {
+                    let s = <<$ty as Accel>::Settings as Settings>::from_spec(&spec)?;
+                    return Ok(<<$ty as Accel>::Settings as Settings>::KEYS
+                        .iter()
+                        .map(|k| (k.name, (k.show)(&s)))
+                        .collect());
+                })*
+                Err(SpecError::UnknownStructure {
+                    name: spec.name.clone(),
+                    valid: STRUCTURES.join(", "),
+                })
+            }
+
+            /// The keys of the named structure's spec: what each accepts, its default, its
+            /// help ([`Settings::describe`]).
+            pub fn keys(name: &str) -> Option<Vec<KeyHelp>> {
+                $(if name == <$ty as Accel>::NAME {
+                    return Some(<<$ty as Accel>::Settings as Settings>::describe());
+                })*
                 None
             }
 

@@ -13,10 +13,11 @@
 //! preset only pins them.
 
 use super::Preset;
-use super::grid::{PRUNE_KEY, SIMD_KEY};
+use super::grid::{PRUNE_HELP, SIMD_HELP};
 use super::hierarchy::{Prune, Resolution, Subdivision};
-use super::rgrid::{CutGrids, GUARD_KEY, MAX_DEPTH};
-use super::{Accel, Counters, HitSink, Primitives, Spec, SpecError, StructureStats};
+use super::rgrid::{CutGrids, GUARD_HELP, MAX_DEPTH};
+use super::settings::{Key, Settings, key};
+use super::{Accel, Counters, HitSink, Primitives, SpecError, StructureStats};
 use crate::geometry::Ray;
 
 /// EG95's simulated octree (§1.2.3, §3).
@@ -42,42 +43,64 @@ pub const EG95: Preset = Preset {
     ],
 };
 
+/// The octree's settings (`octree:maxp=..,depth=..,guard=..,prune=..,simd=..`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OctreeSettings {
+    /// A cell referencing more objects is cut in eight (EG95 used 50, 100, 150).
+    pub maxp: usize,
+    /// Deepest level, the root being 0 (at most 16).
+    pub depth: usize,
+    /// A cell holding every object of its grid is not cut again (hugrt's).
+    pub guard: bool,
+    pub prune: Prune,
+    /// Triangles tested eight at a time where AVX2 is present.
+    pub simd: bool,
+}
+
+impl Default for OctreeSettings {
+    fn default() -> Self {
+        OctreeSettings {
+            maxp: 50,
+            depth: MAX_DEPTH,
+            guard: false,
+            prune: Prune::None,
+            simd: true,
+        }
+    }
+}
+
+impl Settings for OctreeSettings {
+    const KEYS: &'static [Key<Self>] = &[
+        key!("maxp", maxp: usize, 1..=1_000_000, "a cell referencing more objects is cut in eight (EG95 used 50, 100, 150)"),
+        key!("depth", depth: usize, 0..=MAX_DEPTH, "deepest level, the root being 0"),
+        key!("guard", guard: bool, (), GUARD_HELP),
+        key!("prune", prune: Prune, (), PRUNE_HELP),
+        key!("simd", simd: bool, (), SIMD_HELP),
+    ];
+    const PRESETS: &'static [Preset] = &[EG95];
+}
+
 pub struct Octree {
     cut: CutGrids,
 }
 
 impl Accel for Octree {
     const NAME: &'static str = "octree";
-    const KEYS: &'static [(&'static str, &'static str)] = &[
-        (
-            "maxp",
-            "a cell referencing more objects is cut in eight, 1..1000000 (default 50; EG95 used 50, 100, 150)",
-        ),
-        (
-            "depth",
-            "deepest level, the root being 0, 0..16 (default 16)",
-        ),
-        GUARD_KEY,
-        PRUNE_KEY,
-        SIMD_KEY,
-        (
-            "preset",
-            "eg95: EG95's simulated octree (maxp 50, depth 16)",
-        ),
-    ];
+    type Settings = OctreeSettings;
 
-    fn build<P: Primitives>(prims: &P, spec: &Spec) -> Result<Self, SpecError> {
-        let spec = &spec.with_preset(&[EG95])?;
+    fn build_checked<P: Primitives>(
+        prims: &P,
+        settings: &OctreeSettings,
+    ) -> Result<Self, SpecError> {
         let sub = Subdivision {
-            maxp: spec.usize_in("maxp", 50, 1, 1_000_000)?,
-            max_depth: spec.usize_in("depth", MAX_DEPTH, 0, MAX_DEPTH)? as u32,
-            guard: spec.bool("guard", false)?,
+            maxp: settings.maxp,
+            max_depth: settings.depth as u32,
+            guard: settings.guard,
             cells: Resolution::Fixed([2; 3]),
         };
-        let prune = Prune::from_spec(spec, Prune::None)?;
         Ok(Octree {
             // A 2×2×2 grid never shifts its planes (axes of fewer than 4 cells).
-            cut: CutGrids::build(prims, spec, sub, prune, false)?,
+            cut: CutGrids::build(prims, sub, settings.prune, false, settings.simd)?,
         })
     }
 

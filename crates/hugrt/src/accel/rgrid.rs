@@ -23,15 +23,15 @@
 //!
 //! Defaults: `maxp = 50` (EG95's fastest of 50, 100, 150), depth 3 (RTNews: "usually 2 or
 //! 3"; EG95 saw at most 5), `density = 1` (the cube-root rule both papers use), cells as
-//! cubical as possible and shifted planes (hugrt's, [`super::grid::SHIFT_KEY`]).
+//! cubical as possible and shifted planes (hugrt's: [`RecursiveGridSettings`]).
 //!
 //! `preset=eg95` is the recursive grid EG95 measured (§1.2.2, §3): [`EG95`].
 
-use super::grid::{PRUNE_KEY, SHIFT_KEY, SIMD_KEY, check_size};
+use super::grid::{PRUNE_HELP, SHIFT_HELP, SIMD_HELP, check_size};
 use super::hierarchy::{GridHierarchy, GridPlan, LevelView, Prune, Resolution, Subdivision};
+use super::settings::{Key, Settings, key};
 use super::{
-    Accel, CellCensus, Counters, HitSink, Preset, PrimStore, Primitives, Spec, SpecError,
-    StructureStats,
+    Accel, CellCensus, Counters, HitSink, Preset, PrimStore, Primitives, SpecError, StructureStats,
 };
 use crate::geometry::Ray;
 
@@ -47,10 +47,10 @@ impl CutGrids {
     /// objects (as if the scene were one crowded cell), then cuts its crowded cells.
     pub fn build<P: Primitives>(
         prims: &P,
-        spec: &Spec,
         sub: Subdivision,
         prune: Prune,
         shift: bool,
+        simd: bool,
     ) -> Result<CutGrids, SpecError> {
         let n = prims.len();
         check_size(n)?;
@@ -65,7 +65,6 @@ impl CutGrids {
             scene_box: true,
             shift,
         };
-        let simd = spec.bool("simd", true)?;
         let grids = GridHierarchy::build(prims, store, &[plan], prune, Some(sub), simd)?;
         Ok(CutGrids {
             grids,
@@ -111,11 +110,59 @@ pub struct RecursiveGrid {
 /// The deepest level (the root is 0) [`RecursiveGrid`] and [`super::Octree`] accept.
 pub(crate) const MAX_DEPTH: usize = 16;
 
-/// The `guard` key of the cut grids.
-pub(crate) const GUARD_KEY: (&str, &str) = (
-    "guard",
-    "true: a cell holding every object of its grid is not cut again (hugrt's, not the papers'; default false)",
-);
+/// The help of the cut grids' `guard` key.
+pub(crate) const GUARD_HELP: &str =
+    "true: a cell holding every object of its grid is not cut again (hugrt's, not the papers')";
+
+/// The recursive grid's settings (`rgrid:maxp=..,depth=..`, ...).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RecursiveGridSettings {
+    /// A cell referencing more objects is gridded again (EG95 used 50, 100, 150).
+    pub maxp: usize,
+    /// Deepest level of sub-grids, the root being 0 (at most 16).
+    pub depth: usize,
+    /// Cells per object in every grid (1: the cube-root rule).
+    pub density: f32,
+    /// Cells as cubical as possible (RTNews) rather than the same count on every axis
+    /// (EG95's cube-root criterion).
+    pub hetero: bool,
+    /// A cell holding every object of its grid is not cut again (hugrt's).
+    pub guard: bool,
+    pub prune: Prune,
+    /// Cell planes moved off the box's round fractions (hugrt's).
+    pub shift: bool,
+    /// Triangles tested eight at a time where AVX2 is present.
+    pub simd: bool,
+}
+
+impl Default for RecursiveGridSettings {
+    fn default() -> Self {
+        RecursiveGridSettings {
+            maxp: 50,
+            depth: 3,
+            density: 1.0,
+            hetero: true,
+            guard: false,
+            prune: Prune::None,
+            shift: true,
+            simd: true,
+        }
+    }
+}
+
+impl Settings for RecursiveGridSettings {
+    const KEYS: &'static [Key<Self>] = &[
+        key!("maxp", maxp: usize, 1..=1_000_000, "a cell referencing more objects is gridded again (EG95 used 50, 100, 150)"),
+        key!("depth", depth: usize, 0..=MAX_DEPTH, "deepest level of sub-grids, the root being 0"),
+        key!("density", density: f32, 0.001..=1000.0, "cells per object in every grid (1: the cube-root rule)"),
+        key!("hetero", hetero: bool, (), "true: cells as cubical as possible (RTNews); false: the same count on every axis (EG95's cube-root criterion)"),
+        key!("guard", guard: bool, (), GUARD_HELP),
+        key!("prune", prune: Prune, (), PRUNE_HELP),
+        key!("shift", shift: bool, (), SHIFT_HELP),
+        key!("simd", simd: bool, (), SIMD_HELP),
+    ];
+    const PRESETS: &'static [Preset] = &[EG95];
+}
 
 /// EG95's recursive grid (§1.2.2 and §3), after Jevans and Wyvill with Jansen's criterion.
 pub const EG95: Preset = Preset {
@@ -153,44 +200,26 @@ pub const EG95: Preset = Preset {
 
 impl Accel for RecursiveGrid {
     const NAME: &'static str = "rgrid";
-    const KEYS: &'static [(&'static str, &'static str)] = &[
-        (
-            "maxp",
-            "a cell referencing more objects is gridded again, 1..1000000 (default 50; EG95 used 50, 100, 150)",
-        ),
-        (
-            "depth",
-            "deepest level of sub-grids, the root being 0, 0..16 (default 3)",
-        ),
-        (
-            "density",
-            "cells per object in every grid, 0.001..1000 (default 1, the cube-root rule)",
-        ),
-        (
-            "hetero",
-            "true: cells as cubical as possible (RTNews); false: the same count on every axis (EG95's cube-root criterion) (default true)",
-        ),
-        GUARD_KEY,
-        PRUNE_KEY,
-        SHIFT_KEY,
-        SIMD_KEY,
-        (
-            "preset",
-            "eg95: EG95's recursive grid (maxp 50, cube-root criterion, depth 5)",
-        ),
-    ];
+    type Settings = RecursiveGridSettings;
 
-    fn build<P: Primitives>(prims: &P, spec: &Spec) -> Result<Self, SpecError> {
-        let spec = &spec.with_preset(&[EG95])?;
-        let maxp = spec.usize_in("maxp", 50, 1, 1_000_000)?;
-        let depth = spec.usize_in("depth", 3, 0, MAX_DEPTH)? as u32;
-        let density = spec.f32_in("density", 1.0, 0.001, 1000.0)?;
-        let hetero = spec.bool("hetero", true)?;
-        let prune = Prune::from_spec(spec, Prune::None)?;
+    fn build_checked<P: Primitives>(
+        prims: &P,
+        settings: &RecursiveGridSettings,
+    ) -> Result<Self, SpecError> {
+        let RecursiveGridSettings {
+            maxp,
+            depth,
+            density,
+            hetero,
+            guard,
+            prune,
+            shift,
+            simd,
+        } = *settings;
         let sub = Subdivision {
             maxp,
-            max_depth: depth,
-            guard: spec.bool("guard", false)?,
+            max_depth: depth as u32,
+            guard,
             cells: if hetero {
                 Resolution::Cubical(density as f64)
             } else {
@@ -198,7 +227,7 @@ impl Accel for RecursiveGrid {
             },
         };
         Ok(RecursiveGrid {
-            cut: CutGrids::build(prims, spec, sub, prune, spec.bool("shift", true)?)?,
+            cut: CutGrids::build(prims, sub, prune, shift, simd)?,
             density,
             hetero,
         })

@@ -84,24 +84,6 @@ impl Spec {
         })
     }
 
-    pub(crate) fn check_keys(&self, keys: &[(&str, &str)]) -> Result<(), SpecError> {
-        for (k, _) in &self.params {
-            if !keys.iter().any(|(name, _)| name == k) {
-                let valid = if keys.is_empty() {
-                    "(none)".to_string()
-                } else {
-                    keys.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", ")
-                };
-                return Err(SpecError::UnknownKey {
-                    name: self.name.clone(),
-                    key: k.clone(),
-                    valid,
-                });
-            }
-        }
-        Ok(())
-    }
-
     fn raw(&self, key: &str) -> Option<&str> {
         self.params
             .iter()

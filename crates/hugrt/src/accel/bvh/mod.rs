@@ -31,8 +31,9 @@
 mod spatial;
 
 use super::block::{self, Block, BlockRay, EMPTY_LANE, LANES};
+use super::settings::{Key, Settings, key};
 use super::store::{PrimStore, finite};
-use super::{Accel, CellCensus, Counters, HitSink, Primitives, Spec, SpecError, StructureStats};
+use super::{Accel, CellCensus, Counters, HitSink, Primitives, SpecError, StructureStats};
 use crate::geometry::{Aabb, PreparedRay, Ray, Vec3, intersect_triangle};
 use glam::Vec4;
 use spatial::SpatialContext;
@@ -87,6 +88,40 @@ impl Node {
         ],
         children: [NO_CHILD; WIDTH],
     };
+}
+
+/// The bvh's settings (`bvh:leaf=..,bins=..,traversal=..,spatial=..`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BvhSettings {
+    /// Most primitives a leaf holds when the SAH does not split it (at most 16).
+    pub leaf: usize,
+    /// SAH bins per axis (2 to 32).
+    pub bins: usize,
+    /// Cost of a traversal step relative to a block test, for the SAH.
+    pub traversal: f32,
+    /// Spatial splits (SBVH): extra references allowed, as a fraction of the primitives;
+    /// 0 for none.
+    pub spatial: f32,
+}
+
+impl Default for BvhSettings {
+    fn default() -> Self {
+        BvhSettings {
+            leaf: 8,
+            bins: 16,
+            traversal: 1.0,
+            spatial: 0.0,
+        }
+    }
+}
+
+impl Settings for BvhSettings {
+    const KEYS: &'static [Key<Self>] = &[
+        key!("leaf", leaf: usize, 1..=MAX_LEAF, "most primitives a leaf holds when the SAH does not split it"),
+        key!("bins", bins: usize, 2..=MAX_BINS, "SAH bins per axis"),
+        key!("traversal", traversal: f32, 0.0..=100.0, "cost of a traversal step relative to a block test, for the SAH"),
+        key!("spatial", spatial: f32, 0.0..=4.0, "spatial splits (SBVH): extra references allowed, as a fraction of the primitives (0: none)"),
+    ];
 }
 
 pub struct Bvh {
@@ -854,27 +889,15 @@ impl Bvh {
 
 impl Accel for Bvh {
     const NAME: &'static str = "bvh";
-    const KEYS: &'static [(&'static str, &'static str)] = &[
-        (
-            "leaf",
-            "most primitives a leaf holds when the SAH does not split it, 1..16 (default 8)",
-        ),
-        ("bins", "SAH bins per axis, 2..32 (default 16)"),
-        (
-            "traversal",
-            "cost of a traversal step relative to a block test, for the SAH, 0..100 (default 1)",
-        ),
-        (
-            "spatial",
-            "spatial splits (SBVH): extra references allowed, as a fraction of the primitives, 0..4 (default 0: none)",
-        ),
-    ];
+    type Settings = BvhSettings;
 
-    fn build<P: Primitives>(prims: &P, spec: &Spec) -> Result<Self, SpecError> {
-        let leaf_size = spec.usize_in("leaf", 8, 1, MAX_LEAF)?;
-        let bins = spec.usize_in("bins", 16, 2, MAX_BINS)?;
-        let traversal_cost = spec.f32_in("traversal", 1.0, 0.0, 100.0)?;
-        let spatial = spec.f32_in("spatial", 0.0, 0.0, 4.0)?;
+    fn build_checked<P: Primitives>(prims: &P, settings: &BvhSettings) -> Result<Self, SpecError> {
+        let BvhSettings {
+            leaf: leaf_size,
+            bins,
+            traversal: traversal_cost,
+            spatial,
+        } = *settings;
         let n = prims.len();
         let budget = (spatial as f64 * n as f64) as usize;
         if n + budget >= 1 << LEAF_START_BITS {

@@ -3,7 +3,7 @@
 //! objects are referenced by the exact overlap test ([`Prune`]).
 
 use super::MAX_CELLS;
-use crate::accel::{Frame, SpecError};
+use crate::accel::Frame;
 use crate::geometry::Vec3;
 
 /// Cells per axis for a box of side lengths `extent` holding about `cells` cells that are as
@@ -38,7 +38,9 @@ pub fn cubical_resolution(extent: Vec3, cells: f64) -> [u32; 3] {
 /// their box meets.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Prune {
+    /// Every cell the object's box meets (`prune=false`).
     None,
+    /// Only the cells its surface meets (`prune=true`).
     All,
     /// Objects whose box spans at least [`Prune::LARGE`] cells: long thin triangles (the
     /// slivers of SPD gears' concave outlines) are where box binning references many cells
@@ -58,22 +60,13 @@ impl Prune {
             Prune::Large => Prune::LARGE as f64,
         }
     }
-
-    pub(crate) fn from_spec(spec: &crate::accel::Spec, default: Prune) -> Result<Prune, SpecError> {
-        let name = match default {
-            Prune::None => "false",
-            Prune::All => "true",
-            Prune::Large => "large",
-        };
-        Ok(
-            match spec.choice("prune", &["false", "true", "large"], name)? {
-                "true" => Prune::All,
-                "large" => Prune::Large,
-                _ => Prune::None,
-            },
-        )
-    }
 }
+
+crate::accel::settings::choice_value!(Prune {
+    Prune::None => "false",
+    Prune::All => "true",
+    Prune::Large => "large",
+});
 
 /// How many cells a planned grid gets.
 #[derive(Clone, Copy, Debug)]

@@ -66,9 +66,10 @@ pub enum Insertion {
     Fig9,
 }
 
-/// Everything that shapes a HUG.
+/// Everything that shapes a HUG, as the build reads it: [`super::HugSettings::recipe`] of the
+/// settings, whose filter and clustering carry their parameters here.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Settings {
+pub struct Recipe {
     pub filter: Filter,
     pub clustering: Clustering,
     pub world: WorldCells,
@@ -139,7 +140,7 @@ impl Planned {
 
 /// Plans the grids of a HUG over the store entries whose boxes are `boxes` (store order).
 /// Grid 0 is the world; every grid comes after the grids that reference it.
-pub fn plan(store: &PrimStore, boxes: &[Aabb], s: &Settings) -> (Vec<GridPlan>, Report) {
+pub fn plan(store: &PrimStore, boxes: &[Aabb], s: &Recipe) -> (Vec<GridPlan>, Report) {
     let binned: Vec<u32> = (0..boxes.len() as u32)
         .into_par_iter()
         .filter(|&i| finite(&boxes[i as usize]))

@@ -40,14 +40,14 @@ mod build;
 pub mod cluster;
 pub mod filter;
 
-pub use build::{CellShape, Clustering, Insertion, Settings, WorldCells};
+pub use build::{CellShape, Clustering, Insertion, Recipe, WorldCells};
 pub use filter::Filter;
 
-use super::grid::{SHIFT_KEY, SIMD_KEY, store_with_boxes};
-use super::hierarchy::{GridHierarchy, LevelView, Prune};
-use super::{
-    Accel, CellCensus, Counters, HitSink, Preset, Primitives, Spec, SpecError, StructureStats,
-};
+use super::Prune;
+use super::grid::{PRUNE_HELP, SHIFT_HELP, SIMD_HELP, store_with_boxes};
+use super::hierarchy::{GridHierarchy, LevelView};
+use super::settings::{Key, Settings, key};
+use super::{Accel, CellCensus, Counters, HitSink, Preset, Primitives, SpecError, StructureStats};
 use crate::geometry::Ray;
 
 /// The defaults of `hug` with no keys, chosen by measurement: every variant rendered (SPD
@@ -113,23 +113,179 @@ use crate::geometry::Ray;
 ///   adds a walk).
 /// * `pca` and `hetero` off: as SCG97 reports, neither pays (worst 1.26 and, on SPD shells,
 ///   1.55).
-pub const DEFAULTS: Settings = Settings {
-    filter: Filter::Two(0.05),
-    clustering: Clustering::Graph {
-        alpha: 0.5,
-        crowd: Some(cluster::CROWD),
-    },
+pub const DEFAULTS: HugSettings = HugSettings {
+    filter: FilterRule::Two,
+    levels: 3,
+    fraction: 0.05,
+    cluster: ClusterRule::Graph,
+    alpha: 0.5,
+    crowd: Some(cluster::CROWD),
     world: WorldCells::Density(8.0),
     density: 2.0,
     cells: CellShape::Cubical,
-    shift: true,
-    give_back: true,
+    giveback: true,
     min_cluster: 16,
     loose: 0.25,
     pca: false,
     hetero: false,
-    insertion: Insertion::Contained,
+    insert: Insertion::Contained,
+    prune: Prune::Large,
+    shift: true,
+    simd: true,
 };
+
+/// How objects are filtered by size (step 1).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum FilterRule {
+    /// EG95: `levels` levels of equal counts.
+    Levels,
+    /// SCG97 §7.1: two levels split at `fraction` of the longest object.
+    Two,
+}
+
+crate::accel::settings::choice_value!(FilterRule { FilterRule::Levels => "levels", FilterRule::Two => "two" });
+
+/// How each level's objects are clustered (step 2).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ClusterRule {
+    /// EG95: `Isolate`/`Cluster3d` on the projections.
+    Cluster3d,
+    /// SCG97 §7.4: components of the box-intersection graph.
+    Graph,
+}
+
+crate::accel::settings::choice_value!(ClusterRule {
+    ClusterRule::Cluster3d => "cluster3d",
+    ClusterRule::Graph => "graph",
+});
+crate::accel::settings::choice_value!(CellShape { CellShape::Cubical => "cubical", CellShape::CubeRoot => "cube-root" });
+crate::accel::settings::choice_value!(Insertion { Insertion::Contained => "contained", Insertion::Fig9 => "fig9" });
+
+/// `world=2n|sqrt2|D`.
+impl crate::accel::settings::Value for WorldCells {
+    type Range = ();
+    fn parse(text: &str, _: &()) -> Result<Self, String> {
+        match text {
+            "2n" => Ok(WorldCells::TwoN),
+            "sqrt2" => Ok(WorldCells::Sqrt2),
+            _ => f32::parse(text, &(0.001..=1000.0))
+                .map(WorldCells::Density)
+                .map_err(|_| "expected 2n, sqrt2 or cells per item (0.001..1000)".into()),
+        }
+    }
+    fn show(&self, _: &()) -> String {
+        match self {
+            WorldCells::TwoN => "2n".into(),
+            WorldCells::Sqrt2 => "sqrt2".into(),
+            WorldCells::Density(d) => d.to_string(),
+        }
+    }
+    fn accepts(_: &()) -> String {
+        "2n|sqrt2|0.001..1000".into()
+    }
+}
+
+/// The HUG's settings, one field a key (`hug:filter=..,levels=..`, ...); [`DEFAULTS`] are
+/// its defaults, [`EG95`] and [`SCG97`] its presets.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HugSettings {
+    pub filter: FilterRule,
+    /// `filter=levels`: how many (EG95: 3).
+    pub levels: usize,
+    /// `filter=two`: objects under this fraction of the longest form the lower level (SCG97:
+    /// 0.05).
+    pub fraction: f32,
+    pub cluster: ClusterRule,
+    /// δ = α·(the level's mean length): projections (cluster3d) or boxes (graph) closer than
+    /// δ join (EG95: 0.01).
+    pub alpha: f32,
+    /// `cluster=graph`: objects sharing a binning cell with more than this many are joined
+    /// untested (hugrt's); `None` tests every pair (SCG97).
+    pub crowd: Option<usize>,
+    /// Cells of the world grid.
+    pub world: WorldCells,
+    /// Cells per item of a cluster grid (EG95: 1).
+    pub density: f32,
+    pub cells: CellShape,
+    /// Small (`min_cluster`) and loose clusters go back to the enclosing grid (hugrt's).
+    pub giveback: bool,
+    /// `giveback`: clusters of fewer objects are given back.
+    pub min_cluster: usize,
+    /// `giveback`: clusters filling more than this share of the enclosing grid's volume are
+    /// given back.
+    pub loose: f32,
+    /// Grid a cluster in the frame of its principal axes when that box is smaller (SCG97
+    /// §7.2).
+    pub pca: bool,
+    /// Cells per axis from the overlap numbers of the projections (SCG97 §7.3).
+    pub hetero: bool,
+    pub insert: Insertion,
+    pub prune: Prune,
+    /// Cell planes moved off the box's round fractions (hugrt's).
+    pub shift: bool,
+    /// Triangles tested eight at a time where AVX2 is present.
+    pub simd: bool,
+}
+
+impl Default for HugSettings {
+    fn default() -> Self {
+        DEFAULTS
+    }
+}
+
+impl Settings for HugSettings {
+    const KEYS: &'static [Key<Self>] = &[
+        key!("filter", filter: FilterRule, (), "levels (EG95: equal-count size levels) or two (SCG97: split at a fraction of the largest)"),
+        key!("levels", levels: usize, 1..=16, "number of size levels for filter=levels (EG95: 3)"),
+        key!("fraction", fraction: f32, 1e-6..=1.0, "filter=two: objects under this fraction of the largest length form the lower level (SCG97: 0.05)"),
+        key!("cluster", cluster: ClusterRule, (), "cluster3d (EG95: Isolate/Cluster3d on projections) or graph (SCG97: box-intersection components)"),
+        key!("alpha", alpha: f32, 0.0..=100.0, "delta = alpha * the level's mean length; projections (cluster3d) or boxes (graph) closer than delta join (EG95: 0.01)"),
+        key!("crowd", crowd: Option<usize>, (1..=1 << 30, "off"), "cluster=graph: objects sharing a binning cell with more than this many are joined untested (hugrt's), or off: every pair tested (SCG97)"),
+        key!("world", world: WorldCells, (), "cells of the world grid: 2n (EG95), sqrt2 (SCG97) or cells per item"),
+        key!("density", density: f32, 0.001..=1000.0, "cells per item of a cluster grid (EG95: 1)"),
+        key!("cells", cells: CellShape, (), "cubical: cells as cubical as possible (hugrt's); cube-root: as many on every axis (EG95, SCG97)"),
+        key!("giveback", giveback: bool, (), "true: small (min_cluster) and loose clusters go back to the enclosing grid (hugrt's); false: every cluster is gridded (the papers)"),
+        key!("min_cluster", min_cluster: usize, 1..=1 << 30, "giveback: clusters of fewer objects are given back to the enclosing grid"),
+        key!("loose", loose: f32, 0.0..=1e30, "giveback: clusters filling more than this share of the enclosing grid's volume are given back to it"),
+        key!("pca", pca: bool, (), "true: grid a cluster in the frame of its principal axes when that box is smaller (SCG97 7.2)"),
+        key!("hetero", hetero: bool, (), "true: cells per axis from the overlap numbers of the projections (SCG97 7.3)"),
+        key!("insert", insert: Insertion, (), "contained (reference a grid below the deepest grid containing it) or fig9 (also in grids it overlaps)"),
+        key!("prune", prune: Prune, (), PRUNE_HELP),
+        key!("shift", shift: bool, (), SHIFT_HELP),
+        key!("simd", simd: bool, (), SIMD_HELP),
+    ];
+    const PRESETS: &'static [Preset] = &[EG95, SCG97];
+}
+
+impl HugSettings {
+    /// The build's view of these settings: the filter and the clustering with their
+    /// parameters, the rest as they are.
+    pub fn recipe(&self) -> Recipe {
+        Recipe {
+            filter: match self.filter {
+                FilterRule::Levels => Filter::Levels(self.levels),
+                FilterRule::Two => Filter::Two(self.fraction),
+            },
+            clustering: match self.cluster {
+                ClusterRule::Cluster3d => Clustering::Cluster3d { alpha: self.alpha },
+                ClusterRule::Graph => Clustering::Graph {
+                    alpha: self.alpha,
+                    crowd: self.crowd,
+                },
+            },
+            world: self.world,
+            density: self.density,
+            cells: self.cells,
+            shift: self.shift,
+            give_back: self.giveback,
+            min_cluster: self.min_cluster,
+            loose: self.loose,
+            pca: self.pca,
+            hetero: self.hetero,
+            insertion: self.insert,
+        }
+    }
+}
 
 /// EG95's HUG (`hug:preset=eg95`), step for step. What hugrt's defaults change, each a key:
 /// the filter, the clustering and its α, the cells' shape and count, shifted planes, the
@@ -256,211 +412,34 @@ pub struct Hug {
     report: build::Report,
     prims: usize,
     prune: Prune,
-    settings: Settings,
+    settings: HugSettings,
 }
 
 impl Hug {
-    /// The settings a spec asks for, on top of its preset's and of [`DEFAULTS`].
-    pub fn settings(spec: &Spec) -> Result<Settings, SpecError> {
-        let spec = &spec.with_preset(&[EG95, SCG97])?;
-        let d = DEFAULTS;
-        let levels = spec.usize_in(
-            "levels",
-            match d.filter {
-                Filter::Levels(k) => k,
-                Filter::Two(_) => 3,
-            },
-            1,
-            16,
-        )?;
-        let fraction = spec.f32_in(
-            "fraction",
-            match d.filter {
-                Filter::Two(f) => f,
-                Filter::Levels(_) => 0.05,
-            },
-            1e-6,
-            1.0,
-        )?;
-        let default_filter = match d.filter {
-            Filter::Levels(_) => "levels",
-            Filter::Two(_) => "two",
-        };
-        let filter = match spec.choice("filter", &["levels", "two"], default_filter)? {
-            "levels" => Filter::Levels(levels),
-            _ => Filter::Two(fraction),
-        };
-        let (default_alpha, default_crowd) = match d.clustering {
-            Clustering::Cluster3d { alpha } => (alpha, Some(cluster::CROWD)),
-            Clustering::Graph { alpha, crowd } => (alpha, crowd),
-        };
-        let alpha = spec.f32_in("alpha", default_alpha, 0.0, 100.0)?;
-        let crowd =
-            match spec.value("crowd") {
-                None => default_crowd,
-                Some("off") => None,
-                Some(_) => Some(spec.usize_in("crowd", 0, 1, 1 << 30).map_err(|_| {
-                    SpecError::BadValue {
-                        key: "crowd".into(),
-                        value: spec.value("crowd").unwrap_or_default().into(),
-                        reason: "expected off or a count of objects (1..2^30)".into(),
-                    }
-                })?),
-            };
-        let default_cluster = match d.clustering {
-            Clustering::Cluster3d { .. } => "cluster3d",
-            Clustering::Graph { .. } => "graph",
-        };
-        let clustering = match spec.choice("cluster", &["cluster3d", "graph"], default_cluster)? {
-            "cluster3d" => Clustering::Cluster3d { alpha },
-            _ => Clustering::Graph { alpha, crowd },
-        };
-        let world = match spec.value("world") {
-            None => d.world,
-            Some("2n") => WorldCells::TwoN,
-            Some("sqrt2") => WorldCells::Sqrt2,
-            Some(_) => {
-                WorldCells::Density(spec.f32_in("world", 2.0, 0.001, 1000.0).map_err(|_| {
-                    SpecError::BadValue {
-                        key: "world".into(),
-                        value: spec.value("world").unwrap_or_default().into(),
-                        reason: "expected 2n, sqrt2 or cells per item (0.001..1000)".into(),
-                    }
-                })?)
-            }
-        };
-        let insertion = match spec.choice(
-            "insert",
-            &["contained", "fig9"],
-            match d.insertion {
-                Insertion::Contained => "contained",
-                Insertion::Fig9 => "fig9",
-            },
-        )? {
-            "fig9" => Insertion::Fig9,
-            _ => Insertion::Contained,
-        };
-        let cells = match spec.choice(
-            "cells",
-            &["cubical", "cube-root"],
-            match d.cells {
-                CellShape::Cubical => "cubical",
-                CellShape::CubeRoot => "cube-root",
-            },
-        )? {
-            "cube-root" => CellShape::CubeRoot,
-            _ => CellShape::Cubical,
-        };
-        Ok(Settings {
-            filter,
-            clustering,
-            world,
-            density: spec.f32_in("density", d.density, 0.001, 1000.0)?,
-            cells,
-            shift: spec.bool("shift", d.shift)?,
-            give_back: spec.bool("giveback", d.give_back)?,
-            min_cluster: spec.usize_in("min_cluster", d.min_cluster, 1, 1 << 30)?,
-            loose: spec.f32_in("loose", d.loose, 0.0, 1e30)?,
-            pca: spec.bool("pca", d.pca)?,
-            hetero: spec.bool("hetero", d.hetero)?,
-            insertion,
-        })
-    }
-
     /// The settings this HUG was built with.
-    pub fn built_settings(&self) -> &Settings {
+    pub fn built_settings(&self) -> &HugSettings {
         &self.settings
     }
 }
 
 impl Accel for Hug {
     const NAME: &'static str = "hug";
-    const KEYS: &'static [(&'static str, &'static str)] = &[
-        (
-            "filter",
-            "levels (EG95: equal-count size levels) or two (SCG97: split at a fraction of the largest)",
-        ),
-        (
-            "levels",
-            "number of size levels for filter=levels (EG95: 3)",
-        ),
-        (
-            "fraction",
-            "filter=two: objects under this fraction of the largest length form the lower level (SCG97: 0.05)",
-        ),
-        (
-            "cluster",
-            "cluster3d (EG95: Isolate/Cluster3d on projections) or graph (SCG97: box-intersection components)",
-        ),
-        (
-            "alpha",
-            "delta = alpha * the level's mean length; projections (cluster3d) or boxes (graph) closer than delta join (EG95: 0.01)",
-        ),
-        (
-            "world",
-            "cells of the world grid: 2n (EG95), sqrt2 (SCG97) or cells per item",
-        ),
-        (
-            "crowd",
-            "cluster=graph: objects sharing a binning cell with more than this many are joined untested (hugrt's, default 64), or off: every pair tested (SCG97)",
-        ),
-        ("density", "cells per item of a cluster grid (EG95: 1)"),
-        (
-            "cells",
-            "cubical: cells as cubical as possible (hugrt's, default); cube-root: as many on every axis (EG95, SCG97)",
-        ),
-        (
-            "giveback",
-            "true: small (min_cluster) and loose clusters go back to the enclosing grid (hugrt's, default); false: every cluster is gridded (the papers)",
-        ),
-        (
-            "min_cluster",
-            "giveback: clusters of fewer objects are given back to the enclosing grid (default 16)",
-        ),
-        (
-            "loose",
-            "giveback: clusters filling more than this share of the enclosing grid's volume are given back to it (default 0.25)",
-        ),
-        (
-            "pca",
-            "true: grid a cluster in the frame of its principal axes when that box is smaller (SCG97 7.2)",
-        ),
-        (
-            "hetero",
-            "true: cells per axis from the overlap numbers of the projections (SCG97 7.3)",
-        ),
-        (
-            "insert",
-            "contained (reference a grid below the deepest grid containing it) or fig9 (also in grids it overlaps)",
-        ),
-        (
-            "prune",
-            "true: reference a cell only if the primitive itself touches it; large: only for objects whose box spans 16 cells or more (default large)",
-        ),
-        SHIFT_KEY,
-        SIMD_KEY,
-        (
-            "preset",
-            "eg95 or scg97: the paper's algorithm, step for step (other keys override it)",
-        ),
-    ];
+    type Settings = HugSettings;
 
-    fn build<P: Primitives>(prims: &P, spec: &Spec) -> Result<Self, SpecError> {
-        let settings = Hug::settings(spec)?;
-        let spec = &spec.with_preset(&[EG95, SCG97])?;
-        let prune = Prune::from_spec(spec, Prune::Large)?;
+    fn build_checked<P: Primitives>(prims: &P, settings: &HugSettings) -> Result<Self, SpecError> {
+        let prune = settings.prune;
+        let recipe = settings.recipe();
         let n = prims.len();
         let (store, boxes) = store_with_boxes(prims)?;
-        let (plans, report) = build::plan(&store, &boxes, &settings);
+        let (plans, report) = build::plan(&store, &boxes, &recipe);
         drop(boxes);
-        let simd = spec.bool("simd", true)?;
-        let grids = GridHierarchy::build(prims, store, &plans, prune, None, simd)?;
+        let grids = GridHierarchy::build(prims, store, &plans, prune, None, settings.simd)?;
         Ok(Hug {
             grids,
             report,
             prims: n,
             prune,
-            settings,
+            settings: *settings,
         })
     }
 

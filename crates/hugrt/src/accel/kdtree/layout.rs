@@ -38,33 +38,26 @@ pub(super) enum Logical {
 
 /// The memory layouts of the module documentation.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
-pub(super) enum Layout {
+pub enum Layout {
+    /// Depth-first, each inner node followed by its first child (the default).
     DepthFirst,
+    /// Level by level.
     BreadthFirst,
+    /// Every node at a random place, each inner node holding both children's.
     Scattered,
+    /// Ordinary nodes in subtrees of 64-byte lines.
     Subtrees,
+    /// Havran's pointer-free subtrees, seven nodes a line.
     Compact,
 }
 
-impl Layout {
-    pub const NAMES: &'static [&'static str] = &[
-        "depth-first",
-        "breadth-first",
-        "scattered",
-        "subtrees",
-        "compact",
-    ];
-
-    pub fn from_name(name: &str) -> Layout {
-        match name {
-            "breadth-first" => Layout::BreadthFirst,
-            "scattered" => Layout::Scattered,
-            "subtrees" => Layout::Subtrees,
-            "compact" => Layout::Compact,
-            _ => Layout::DepthFirst,
-        }
-    }
-}
+crate::accel::settings::choice_value!(Layout {
+    Layout::DepthFirst => "depth-first",
+    Layout::BreadthFirst => "breadth-first",
+    Layout::Scattered => "scattered",
+    Layout::Subtrees => "subtrees",
+    Layout::Compact => "compact",
+});
 
 /// A node as the traversal reads it.
 pub(super) enum Visit {
@@ -535,14 +528,20 @@ mod tests {
                 .filter(|i| i % 3 != 2)
                 .map(|i| 10 + i)
                 .collect();
-            for name in Layout::NAMES {
+            for layout in [
+                Layout::DepthFirst,
+                Layout::BreadthFirst,
+                Layout::Scattered,
+                Layout::Subtrees,
+                Layout::Compact,
+            ] {
                 let mut refs = (0..1u32 << depth).map(|i| 10 + i).collect();
-                let got = match Nodes::lay_out(&tree, Layout::from_name(name), &mut refs).unwrap() {
+                let got = match Nodes::lay_out(&tree, layout, &mut refs).unwrap() {
                     Nodes::Lines(l) => leaves_in_order(&l, &refs),
                     Nodes::Scattered(s) => leaves_in_order(&s, &refs),
                     Nodes::Compact(c) => leaves_in_order(&c, &refs),
                 };
-                assert_eq!(got, want, "{name}, depth {depth}");
+                assert_eq!(got, want, "{layout:?}, depth {depth}");
             }
         }
     }

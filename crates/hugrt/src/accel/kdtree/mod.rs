@@ -49,14 +49,15 @@
 
 mod layout;
 
+use super::settings::{Key, Settings, key};
 use super::sort::radix_sort_keys;
 use super::store::{PrimStore, finite};
 use super::{
-    Accel, CellCensus, Counters, HitSink, Mailbox, Preset, Primitives, Spec, SpecError,
-    StructureStats,
+    Accel, CellCensus, Counters, HitSink, Mailbox, Preset, Primitives, SpecError, StructureStats,
 };
 use crate::geometry::{Aabb, PreparedRay, Ray};
-use layout::{Layout, Lines, Logical, NodeStore, Nodes, Visit};
+pub use layout::Layout;
+use layout::{Lines, Logical, NodeStore, Nodes, Visit};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// See [`super::bvh`]: the same widening, for the same reason.
@@ -68,10 +69,66 @@ const RADIX_EVENTS: usize = 1024;
 /// Deepest tree allowed by the `depth` key.
 const MAX_DEPTH: usize = 64;
 
-#[derive(Clone, Copy, PartialEq, Eq)]
-enum SplitRule {
+/// Where a node is cut.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SplitRule {
+    /// Havran's cost (eq. 3) at the key positions.
     Sah,
+    /// The mid-point, axes in turn.
     Mid,
+}
+
+crate::accel::settings::choice_value!(SplitRule { SplitRule::Sah => "sah", SplitRule::Mid => "mid" });
+
+/// The kd-tree's settings (`kdtree:split=..,leaf=..`, ...).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct KdTreeSettings {
+    pub split: SplitRule,
+    /// `split=mid`: most primitives a leaf holds (with the SAH, the cost decides).
+    pub leaf: usize,
+    /// Deepest level; `None`: 8 + 1.3·log2 n with the SAH (Havran's), 30 at the mid-point.
+    pub depth: Option<usize>,
+    /// SAH: cost of a traversal step relative to a primitive test (eq. 3's `T_P + T_T`).
+    pub traversal: f32,
+    /// SAH: the part of `traversal` that is the step into a child (`T_T`), weighed by the
+    /// child's probability in eq. 7.
+    pub step: f32,
+    /// SAH: hugrt's factor on the object terms of a plane leaving a side empty (1 is eq. 3).
+    pub bonus: f32,
+    /// SAH: cost planes leaving a side empty by eq. 7 at every node, nodes of one object too
+    /// (Havran §4.2.2).
+    pub cut: bool,
+    /// The nodes in memory (Havran §4.3).
+    pub layout: Layout,
+}
+
+impl Default for KdTreeSettings {
+    fn default() -> Self {
+        KdTreeSettings {
+            split: SplitRule::Sah,
+            leaf: 3,
+            depth: None,
+            traversal: 0.75,
+            step: 0.15,
+            bonus: EMPTY_BONUS,
+            cut: false,
+            layout: Layout::DepthFirst,
+        }
+    }
+}
+
+impl Settings for KdTreeSettings {
+    const KEYS: &'static [Key<Self>] = &[
+        key!("split", split: SplitRule, (), "sah: Havran's cost at the key positions; mid: mid-point, cyclic axes"),
+        key!("leaf", leaf: usize, 1..=1000, "mid: most primitives a leaf holds; sah: leaves are as the cost decides"),
+        key!("depth", depth: Option<usize>, (1..=MAX_DEPTH, "auto"), "deepest level (auto: sah 8 + 1.3 log2 n, mid 30)"),
+        key!("traversal", traversal: f32, 0.0..=100.0, "sah: cost of a traversal step relative to a primitive test"),
+        key!("step", step: f32, 0.0..=100.0, "sah: the part of traversal that is the step into a child (T_T), weighed by the child's probability in eq. 7"),
+        key!("bonus", bonus: f32, 0.0..=1.0, "sah: factor on the object terms of a plane leaving a side empty (hugrt's; 1 is eq. 3)"),
+        key!("cut", cut: bool, (), "sah: true costs planes leaving a side empty by eq. 7 at every node and considers nodes of one object too (Havran 4.2.2)"),
+        key!("layout", layout: Layout, (), "nodes in memory (Havran 4.3): depth-first, breadth-first, scattered (nodes at random), subtrees (ordinary, in 64-byte lines), compact (pointer-free subtrees of 7 nodes a line)"),
+    ];
+    const PRESETS: &'static [Preset] = &[HAVRAN];
 }
 
 pub struct KdTree {
@@ -507,62 +564,29 @@ impl KdTree {
 
 impl Accel for KdTree {
     const NAME: &'static str = "kdtree";
-    const KEYS: &'static [(&'static str, &'static str)] = &[
-        (
-            "split",
-            "sah: Havran's cost at the key positions (default); mid: mid-point, cyclic axes",
-        ),
-        (
-            "leaf",
-            "mid: most primitives a leaf holds, 1..1000 (default 3); sah: leaves are as the cost decides",
-        ),
-        (
-            "depth",
-            "deepest level, 1..64 (default: sah 8 + 1.3 log2 n, mid 30)",
-        ),
-        (
-            "traversal",
-            "sah: cost of a traversal step relative to a primitive test, 0..100 (default 0.75)",
-        ),
-        (
-            "step",
-            "sah: the part of traversal that is the step into a child (T_T), weighed by the child's probability in eq. 7 (default 0.15)",
-        ),
-        (
-            "bonus",
-            "sah: factor on the object terms of a plane leaving a side empty, 0..1 (hugrt's default 0.8; 1 is eq. 3)",
-        ),
-        (
-            "cut",
-            "sah: true costs planes leaving a side empty by eq. 7 at every node and considers nodes of one object too (Havran 4.2.2; default false)",
-        ),
-        (
-            "layout",
-            "nodes in memory (Havran 4.3): depth-first (default), breadth-first, scattered (nodes at random), subtrees (ordinary, in 64-byte lines), compact (pointer-free subtrees of 7 nodes a line)",
-        ),
-        (
-            "preset",
-            "havran: Havran's method (2), eq. 3 with cutting off empty space (eq. 7-8)",
-        ),
-    ];
+    type Settings = KdTreeSettings;
 
-    fn build<P: Primitives>(prims: &P, spec: &Spec) -> Result<Self, SpecError> {
-        let spec = &spec.with_preset(&[HAVRAN])?;
-        let rule = match spec.choice("split", &["sah", "mid"], "sah")? {
-            "mid" => SplitRule::Mid,
-            _ => SplitRule::Sah,
-        };
-        let leaf_size = spec.usize_in("leaf", 3, 1, 1000)?;
+    fn build_checked<P: Primitives>(
+        prims: &P,
+        settings: &KdTreeSettings,
+    ) -> Result<Self, SpecError> {
+        let KdTreeSettings {
+            split: rule,
+            leaf: leaf_size,
+            depth,
+            traversal: traversal_cost,
+            step,
+            bonus: empty_bonus,
+            cut,
+            layout,
+        } = *settings;
         let n = prims.len();
         let default_depth = match rule {
             SplitRule::Sah => (8.0 + 1.3 * (n.max(1) as f64).log2()).round() as usize,
             SplitRule::Mid => 30,
         };
-        let max_depth = spec.usize_in("depth", default_depth.min(MAX_DEPTH), 1, MAX_DEPTH)?;
-        let traversal_cost = spec.f32_in("traversal", 0.75, 0.0, 100.0)?;
-        let step_cost = spec.f32_in("step", 0.15, 0.0, 100.0)?.min(traversal_cost);
-        let empty_bonus = spec.f32_in("bonus", EMPTY_BONUS, 0.0, 1.0)?;
-        let cut = spec.bool("cut", false)?;
+        let max_depth = depth.unwrap_or(default_depth.min(MAX_DEPTH));
+        let step_cost = step.min(traversal_cost);
         if n >= 1 << 30 {
             return Err(SpecError::Build(format!(
                 "{n} primitives: the kdtree holds at most 2^30-1"
@@ -598,7 +622,6 @@ impl Accel for KdTree {
             budget: AtomicUsize::new(63 * items.len() + 4096),
         };
         let root = builder.build(items, bounds, 0);
-        let layout = Layout::from_name(spec.choice("layout", Layout::NAMES, "depth-first")?);
         let mut tree = KdTree {
             nodes: Nodes::Lines(Lines::default()),
             node_count: 0,
