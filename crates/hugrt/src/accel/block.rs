@@ -106,8 +106,17 @@ fn lanes_sse(b: &Block, ray: &BlockRay, tmin: f32, tmax: f32) -> Lanes {
     unsafe {
         let load = |row: &[f32; LANES]| _mm_load_ps(row.as_ptr());
         let s = |x: f32| _mm_set1_ps(x);
-        let o = ray.o.map(s);
-        let p = [0, 1, 2].map(|k| [0, 1, 2].map(|a| _mm_sub_ps(load(&b.v[k][a]), o[a])));
+        let o = [s(ray.o[0]), s(ray.o[1]), s(ray.o[2])];
+        // Spelled out: the compiler may leave `array::map`'s closures as calls (the bvh's
+        // lesson; a few percent of a query's instructions when it did).
+        let vertex = |k: usize| {
+            [
+                _mm_sub_ps(load(&b.v[k][0]), o[0]),
+                _mm_sub_ps(load(&b.v[k][1]), o[1]),
+                _mm_sub_ps(load(&b.v[k][2]), o[2]),
+            ]
+        };
+        let p = [vertex(0), vertex(1), vertex(2)];
         // `r·p` as glam's `dot` sums it: `(r.x·p.x + r.y·p.y) + r.z·p.z`.
         let dot = |r: &[f32; 3], p: &[__m128; 3]| {
             _mm_add_ps(

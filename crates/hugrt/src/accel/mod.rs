@@ -22,6 +22,7 @@ mod hierarchy;
 pub mod hug;
 mod kdtree;
 mod mailbox;
+mod margin;
 mod octree;
 mod query;
 mod rgrid;

@@ -11,8 +11,9 @@
 //! same on any number of threads; no reference unsplitting. Spheres, cones and other
 //! primitives are never cut: their piece is their box cut by the plane.
 
-use super::{Bounds, BuildNode, Builder, Item, MEDIAN_DEPTH, PARALLEL_ITEMS, blocks, extents};
-use super::{cheapest_plane, median, partition};
+use super::MEDIAN_DEPTH;
+use super::build::{Bounds, BuildNode, Builder, Item, PARALLEL_ITEMS, blocks, extents};
+use super::build::{cheapest_plane, median, partition};
 use crate::geometry::{Aabb, Vec3};
 
 /// Overlap of the object split's children, as a fraction of the root's surface area, above

@@ -96,14 +96,11 @@ impl<P: Primitives> Items<'_, P> {
 }
 
 impl GridHierarchy {
-    /// The margin of the module documentation for a scene whose finite boxes span `bounds`.
+    /// The margin of the module documentation ([`crate::accel::margin`]) for a scene whose
+    /// finite boxes span `bounds`, at least 10⁻³⁰ so that a scene of one point still gets
+    /// cells that meet it.
     pub(super) fn margin_for(bounds: &Aabb) -> f32 {
-        let m = if bounds.is_empty() {
-            0.0
-        } else {
-            bounds.magnitude().max(bounds.extent().max_element())
-        };
-        (m * 2f32.powi(-17)).max(1e-30)
+        crate::accel::margin::margin_for(bounds).max(1e-30)
     }
 
     /// Builds the grids of `plans` (a grid's children come after it) over `store` (entries

@@ -49,6 +49,7 @@
 
 mod layout;
 
+use super::margin::margin_for;
 use super::settings::{Key, Settings, key};
 use super::sort::radix_sort_keys;
 use super::store::{PrimStore, finite};
@@ -59,9 +60,6 @@ use crate::geometry::{Aabb, PreparedRay, Ray};
 pub use layout::Layout;
 use layout::{Lines, Logical, NodeStore, Nodes, Visit};
 use std::sync::atomic::{AtomicUsize, Ordering};
-
-/// See [`super::bvh`]: the same widening, for the same reason.
-const MARGIN: f32 = 1.0 / (1 << 17) as f32;
 
 /// Nodes of at least this many events sort them by radix ([`radix_sort_keys`]).
 const RADIX_EVENTS: usize = 1024;
@@ -600,11 +598,7 @@ impl Accel for KdTree {
             .iter()
             .filter(|b| finite(b))
             .fold(Aabb::EMPTY, |a, b| a.union(b));
-        let margin = if scene.is_empty() {
-            0.0
-        } else {
-            scene.magnitude().max(scene.extent().max_element()) * MARGIN
-        };
+        let margin = margin_for(&scene);
         let boxes: Vec<Aabb> = raw.iter().map(|b| b.expand(margin)).collect();
         let items: Vec<u32> = (0..store.len() as u32)
             .filter(|&s| finite(&raw[s as usize]))
