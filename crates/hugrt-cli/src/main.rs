@@ -499,21 +499,21 @@ fn run(cli: Cli) -> Result<()> {
                     print_counters(k, c.total_rays())?;
                 }
                 if let Some(path) = stats_json {
-                    let mut j = serde_json::to_value(c)?;
-                    let o = j.as_object_mut().expect("counts serialise to an object");
-                    o.insert("scene".into(), name.clone().into());
-                    o.insert("accel".into(), accel.clone().into());
-                    o.insert("primitives".into(), scene.shapes.len().into());
-                    o.insert("width".into(), settings.width.into());
-                    o.insert("height".into(), settings.height.into());
-                    o.insert("load_seconds".into(), load_s.into());
-                    o.insert("build_seconds".into(), build_s.into());
-                    o.insert("render_seconds".into(), render_s.into());
-                    o.insert("accel_memory_bytes".into(), (acc.memory_bytes() + soft.as_ref().map_or(0, |s| s.memory_bytes())).into());
-                    o.insert("soft_shadow_radius".into(), soft.as_ref().map(|s| s.radius()).into());
-                    if let Some(k) = out.counters {
-                        o.insert("counters_per_level".into(), serde_json::to_value(k.used_levels())?);
-                    }
+                    let j = hugrt::render::RenderReport {
+                        counts: c,
+                        scene: name.clone(),
+                        accel: accel.clone(),
+                        primitives: scene.shapes.len(),
+                        width: settings.width,
+                        height: settings.height,
+                        load_seconds: load_s,
+                        build_seconds: build_s,
+                        render_seconds: render_s,
+                        accel_memory_bytes: acc.memory_bytes()
+                            + soft.as_ref().map_or(0, |s| s.memory_bytes()),
+                        soft_shadow_radius: soft.as_ref().map(|s| s.radius()),
+                        counters_per_level: out.counters.map(|k| k.used_levels().to_vec()),
+                    };
                     std::fs::write(&path, serde_json::to_string_pretty(&j)? + "\n")
                         .with_context(|| format!("writing {}", path.display()))?;
                 }

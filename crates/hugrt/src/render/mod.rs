@@ -40,6 +40,29 @@ pub struct RenderSettings {
     pub counters: bool,
 }
 
+/// What `hugrt render --stats-json` writes: the ray counts, then the run's facts; the schema
+/// is in `docs/output-formats.md`, and fields are only ever added.
+#[derive(Clone, Debug, Serialize)]
+pub struct RenderReport {
+    #[serde(flatten)]
+    pub counts: RayCounts,
+    pub scene: String,
+    pub accel: String,
+    pub primitives: usize,
+    pub width: u32,
+    pub height: u32,
+    pub load_seconds: f64,
+    pub build_seconds: f64,
+    pub render_seconds: f64,
+    /// The structure's bytes, and the occluders' structure's with soft shadows.
+    pub accel_memory_bytes: usize,
+    /// The lights' radius with soft shadows, `null` without.
+    pub soft_shadow_radius: Option<f32>,
+    /// The papers' counters per level, with `--counters`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub counters_per_level: Option<Vec<crate::accel::LevelCounts>>,
+}
+
 /// Ray counts of a rendering, as the SPD notes tabulate them.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
 pub struct RayCounts {
