@@ -22,48 +22,35 @@ pub trait Value: Sized {
     fn accepts(range: &Self::Range) -> String;
 }
 
-impl Value for usize {
-    type Range = RangeInclusive<usize>;
-    fn parse(text: &str, range: &Self::Range) -> Result<Self, String> {
-        let x: usize = text.parse().map_err(|_| "not a whole number".to_string())?;
-        if !range.contains(&x) {
-            return Err(format!(
-                "must be between {} and {}",
-                range.start(),
-                range.end()
-            ));
+/// Numbers: parsed, then held to their range (which NaN, failing every comparison, never
+/// meets).
+macro_rules! number_value {
+    ($ty:ty, $what:literal) => {
+        impl Value for $ty {
+            type Range = RangeInclusive<$ty>;
+            fn parse(text: &str, range: &Self::Range) -> Result<Self, String> {
+                let x: $ty = text.parse().map_err(|_| $what.to_string())?;
+                if !(x >= *range.start() && x <= *range.end()) {
+                    return Err(format!(
+                        "must be between {} and {}",
+                        range.start(),
+                        range.end()
+                    ));
+                }
+                Ok(x)
+            }
+            fn show(&self, _: &Self::Range) -> String {
+                self.to_string()
+            }
+            fn accepts(range: &Self::Range) -> String {
+                format!("{}..{}", range.start(), range.end())
+            }
         }
-        Ok(x)
-    }
-    fn show(&self, _: &Self::Range) -> String {
-        self.to_string()
-    }
-    fn accepts(range: &Self::Range) -> String {
-        format!("{}..{}", range.start(), range.end())
-    }
+    };
 }
 
-impl Value for f32 {
-    type Range = RangeInclusive<f32>;
-    fn parse(text: &str, range: &Self::Range) -> Result<Self, String> {
-        let x: f32 = text.parse().map_err(|_| "not a number".to_string())?;
-        // Also refuses NaN, which no comparison accepts.
-        if !(x >= *range.start() && x <= *range.end()) {
-            return Err(format!(
-                "must be between {} and {}",
-                range.start(),
-                range.end()
-            ));
-        }
-        Ok(x)
-    }
-    fn show(&self, _: &Self::Range) -> String {
-        self.to_string()
-    }
-    fn accepts(range: &Self::Range) -> String {
-        format!("{}..{}", range.start(), range.end())
-    }
-}
+number_value!(usize, "not a whole number");
+number_value!(f32, "not a number");
 
 impl Value for bool {
     type Range = ();

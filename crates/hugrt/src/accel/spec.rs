@@ -91,64 +91,6 @@ impl Spec {
             .map(|(_, v)| v.as_str())
     }
 
-    /// A finite number in `[lo, hi]`, or `default` when the key is absent.
-    pub fn f32_in(&self, key: &str, default: f32, lo: f32, hi: f32) -> Result<f32, SpecError> {
-        let Some(v) = self.raw(key) else {
-            return Ok(default);
-        };
-        let bad = |reason: String| SpecError::BadValue {
-            key: key.to_string(),
-            value: v.to_string(),
-            reason,
-        };
-        let x: f32 = v.parse().map_err(|_| bad("not a number".into()))?;
-        if !(x >= lo && x <= hi) {
-            return Err(bad(format!("must be between {lo} and {hi}")));
-        }
-        Ok(x)
-    }
-
-    /// A whole number in `[lo, hi]`, or `default` when the key is absent.
-    pub fn usize_in(
-        &self,
-        key: &str,
-        default: usize,
-        lo: usize,
-        hi: usize,
-    ) -> Result<usize, SpecError> {
-        let Some(v) = self.raw(key) else {
-            return Ok(default);
-        };
-        let bad = |reason: String| SpecError::BadValue {
-            key: key.to_string(),
-            value: v.to_string(),
-            reason,
-        };
-        let x: usize = v.parse().map_err(|_| bad("not a whole number".into()))?;
-        if !(lo..=hi).contains(&x) {
-            return Err(bad(format!("must be between {lo} and {hi}")));
-        }
-        Ok(x)
-    }
-
-    /// One of `choices`, or `default` when the key is absent.
-    pub fn choice<'a>(
-        &'a self,
-        key: &str,
-        choices: &[&str],
-        default: &'a str,
-    ) -> Result<&'a str, SpecError> {
-        match self.raw(key) {
-            None => Ok(default),
-            Some(v) if choices.contains(&v) => Ok(v),
-            Some(v) => Err(SpecError::BadValue {
-                key: key.to_string(),
-                value: v.to_string(),
-                reason: format!("expected one of {}", choices.join(", ")),
-            }),
-        }
-    }
-
     /// This spec with a preset's pairs added for the keys it does not give itself: the value
     /// of `preset` names one of `presets`, and every other key given beside it overrides the
     /// preset's value. Without a `preset` key the spec is returned as it is.
@@ -184,19 +126,6 @@ impl Spec {
     pub fn value(&self, key: &str) -> Option<&str> {
         self.raw(key)
     }
-
-    pub fn bool(&self, key: &str, default: bool) -> Result<bool, SpecError> {
-        match self.raw(key) {
-            None => Ok(default),
-            Some("true" | "1" | "yes" | "on") => Ok(true),
-            Some("false" | "0" | "no" | "off") => Ok(false),
-            Some(v) => Err(SpecError::BadValue {
-                key: key.to_string(),
-                value: v.to_string(),
-                reason: "expected true or false".into(),
-            }),
-        }
-    }
 }
 
 #[cfg(test)]
@@ -207,12 +136,11 @@ mod tests {
     fn parses_names_and_pairs() {
         let s = Spec::parse("grid:density=20, prune=true").unwrap();
         assert_eq!(s.name, "grid");
-        assert_eq!(s.f32_in("density", 1.0, 0.0, 100.0), Ok(20.0));
-        assert_eq!(s.bool("prune", false), Ok(true));
+        assert_eq!(s.value("density"), Some("20"));
+        assert_eq!(s.value("prune"), Some("true"));
         assert!(Spec::parse("grid:density").is_err());
         assert!(Spec::parse(":x=1").is_err());
         assert!(Spec::parse("grid:a=1,a=2").is_err());
-        assert!(s.f32_in("density", 1.0, 0.0, 10.0).is_err());
     }
 
     #[test]
