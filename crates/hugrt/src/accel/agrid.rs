@@ -14,10 +14,11 @@
 //!    until a round merges nothing (at most 64 rounds: linear work per round).
 //! 2. **Orphans**: clusters of fewer than `orphans` objects are not worth a grid; their
 //!    objects share one orphan grid.
-//! 3. **BVH** over the clusters' grids (and the orphan grid): binary, split at the median of
-//!    the longest axis of the grids' centres, one grid per leaf; walked near child first,
-//!    skipping nodes entered beyond the nearest hit. RTNews found interior nodes to have few
-//!    children and gridded only the leaves; so does hugrt.
+//! 3. **BVH** over the clusters' grids (and the orphan grid): the bvh's four-wide tree, build
+//!    (binned SAH over the grids' boxes) and traversal ([`BoxTree`]), one grid per leaf;
+//!    walked nearest child first, skipping nodes entered beyond the nearest hit. RTNews found
+//!    interior nodes to have few children and gridded only the leaves; so does hugrt. (Until
+//!    December 2026 the tree was binary, split at the median of the grids' centres.)
 //! 4. **Grids**: each cluster gridded with `density` cells per object, cells as cubical as
 //!    possible (the paper's heterogeneous local grids).
 //! 5. **Sub-voxel grids**: a cell referencing more than `maxp` objects is gridded again
@@ -32,9 +33,13 @@
 //! time over the best setting of each scene, geometric mean: `f = 1.5, m = 0.25` 1.66 (best),
 //! `f = 1, m = 0.1` 1.77, `f = 2` 1.76, `maxp` 8 or 50 1.79/1.76, `density = 2` 1.80,
 //! `orphans = 32` 2.05. No setting is best everywhere (`f = 1` on balls and tree, `orphans =
-//! 32` on the kitchen). Where the adaptive grid loses to the HUG (1.7× slower, geometric
-//! mean) is the BVH over many small clusters: 14–45 box tests per ray.
+//! 32` on the kitchen). Where the adaptive grid lost to the HUG (1.7× slower, geometric
+//! mean) was the binary BVH over many small clusters: 14–45 box tests per ray. The four-wide
+//! SAH tree cut the bunny's incoherent rays from 4,508 to 2,825 instructions a ray (box
+//! tests 21.1 to 15.2) and raised their rate 1.41×, camera rays' 1.33×
+//! (docs/measurements.md, "Queries").
 
+use super::bvh::BoxTree;
 use super::grid::{PRUNE_HELP, SIMD_HELP, store_with_boxes};
 use super::hierarchy::{GridHierarchy, GridPlan, LevelView, Prune, Resolution, Subdivision};
 use super::settings::{Key, Settings, key};
@@ -91,20 +96,10 @@ impl Default for AdaptiveSettings {
     }
 }
 
-/// A node of the BVH over the grids: a leaf names a grid (`right == LEAF`), an inner node its
-/// children.
-#[derive(Clone, Copy, Debug)]
-struct Node {
-    bounds: Aabb,
-    left: u32,
-    right: u32,
-}
-
-const LEAF: u32 = u32::MAX;
-
 pub struct AdaptiveGrid {
     grids: GridHierarchy,
-    nodes: Vec<Node>,
+    /// The tree over the grids, an entry a grid.
+    tree: BoxTree,
     settings: AdaptiveSettings,
     clusters: usize,
     orphans: usize,
@@ -150,48 +145,6 @@ impl AdaptiveGrid {
             }
         }
         candidates.into_iter().map(|(_, r)| r).collect()
-    }
-
-    /// The BVH over the grids' boxes (step 3): nodes in depth-first order, the root first.
-    fn bvh(boxes: &[(Aabb, u32)]) -> Vec<Node> {
-        let mut nodes = Vec::with_capacity(2 * boxes.len());
-        let mut items = boxes.to_vec();
-        if !items.is_empty() {
-            Self::bvh_node(&mut items, &mut nodes);
-        }
-        nodes
-    }
-
-    fn bvh_node(items: &mut [(Aabb, u32)], nodes: &mut Vec<Node>) -> u32 {
-        let at = nodes.len() as u32;
-        let bounds = items.iter().fold(Aabb::EMPTY, |a, (b, _)| a.union(b));
-        if let [(_, g)] = items {
-            nodes.push(Node {
-                bounds,
-                left: *g,
-                right: LEAF,
-            });
-            return at;
-        }
-        nodes.push(Node {
-            bounds,
-            left: 0,
-            right: 0,
-        });
-        let centres = items
-            .iter()
-            .fold(Aabb::EMPTY, |a, (b, _)| a.grow(b.center()));
-        let axis = centres.extent().max_position();
-        let mid = items.len() / 2;
-        items.select_nth_unstable_by(mid, |a, b| {
-            a.0.center()[axis].total_cmp(&b.0.center()[axis])
-        });
-        let (lo, hi) = items.split_at_mut(mid);
-        let left = Self::bvh_node(lo, nodes);
-        let right = Self::bvh_node(hi, nodes);
-        nodes[at as usize].left = left;
-        nodes[at as usize].right = right;
-        at
     }
 }
 
@@ -248,12 +201,10 @@ impl Accel for AdaptiveGrid {
             cells: per_object,
         };
         let grids = GridHierarchy::build(prims, store, &plans, prune, Some(sub), settings.simd)?;
-        let tops: Vec<(Aabb, u32)> = (0..plans.len())
-            .map(|g| (grids.grid_box(g), g as u32))
-            .collect();
+        let tops: Vec<Aabb> = (0..plans.len()).map(|g| grids.grid_box(g)).collect();
         Ok(AdaptiveGrid {
             grids,
-            nodes: Self::bvh(&tops),
+            tree: BoxTree::build(&tops),
             settings,
             clusters,
             orphans: orphan_count,
@@ -268,64 +219,16 @@ impl Accel for AdaptiveGrid {
         sink: &mut S,
         counters: &mut C,
     ) {
-        let Some(root) = self.nodes.first() else {
-            return;
-        };
         let pr = PreparedRay::new(ray);
         let mut mail = Mailbox::default();
-        counters.box_test(0);
-        let Some((t, _)) = root.bounds.intersect(&pr, ray.tmin, sink.tmax()) else {
-            return;
-        };
-        // Depth of a median split tree is at most log2(grids) + 1 < 33.
-        let mut stack = [(0u32, 0f32); 64];
-        stack[0] = (0, t);
-        let mut top = 1;
-        while top > 0 {
-            top -= 1;
-            let (k, entry) = stack[top];
-            if entry > sink.tmax() {
-                continue;
-            }
-            let node = &self.nodes[k as usize];
-            if node.right == LEAF {
-                if self
-                    .grids
-                    .walk::<P, C, S>(node.left, prims, &pr, ray.tmin, sink, &mut mail, counters)
-                {
-                    return;
-                }
-                continue;
-            }
-            counters.box_test(0);
-            counters.box_test(0);
-            let tmax = sink.tmax();
-            let hit = |c: u32| {
-                self.nodes[c as usize]
-                    .bounds
-                    .intersect(&pr, ray.tmin, tmax)
-                    .map(|(t, _)| (c, t))
-            };
-            match (hit(node.left), hit(node.right)) {
-                (Some(a), Some(b)) => {
-                    let (first, second) = if a.1 <= b.1 { (a, b) } else { (b, a) };
-                    stack[top] = second;
-                    stack[top + 1] = first;
-                    top += 2;
-                }
-                (Some(a), None) | (None, Some(a)) => {
-                    stack[top] = a;
-                    top += 1;
-                }
-                (None, None) => {}
-            }
-        }
+        self.tree.walk(ray, sink, counters, |g, sink, counters| {
+            self.grids
+                .walk::<P, C, S>(g, prims, &pr, ray.tmin, sink, &mut mail, counters)
+        });
     }
 
     fn memory_bytes(&self) -> usize {
-        std::mem::size_of::<Self>()
-            + self.grids.memory_bytes()
-            + self.nodes.capacity() * std::mem::size_of::<Node>()
+        std::mem::size_of::<Self>() + self.grids.memory_bytes() + self.tree.memory_bytes()
     }
 
     fn stats(&self) -> StructureStats {
@@ -340,7 +243,7 @@ impl Accel for AdaptiveGrid {
         s.push("depth_limit", a.depth as f64);
         s.push("clusters", self.clusters as f64);
         s.push("orphans", self.orphans as f64);
-        s.push("bvh_nodes", self.nodes.len() as f64);
+        s.push("bvh_nodes", self.tree.node_count() as f64);
         s.push("grids", self.grids.grid_count() as f64);
         s.push("depth", levels.len() as f64);
         s.push("cells", self.grids.cell_count() as f64);
@@ -351,7 +254,7 @@ impl Accel for AdaptiveGrid {
             object_refs as f64 / self.prims.max(1) as f64,
         );
         s.push_memory(
-            self.grids.grid_memory_bytes() + self.nodes.capacity() * std::mem::size_of::<Node>(),
+            self.grids.grid_memory_bytes() + self.tree.memory_bytes(),
             self.memory_bytes(),
             self.prims,
         );

@@ -2,8 +2,8 @@
 //! items 32-byte boxes moved in place, large nodes split on both threads.
 
 use super::flatten::{PARALLEL_FLATTEN, four};
-use super::*;
-use crate::geometry::Aabb;
+use super::{LANES, MEDIAN_DEPTH};
+use crate::geometry::{Aabb, Vec3};
 use glam::Vec4;
 /// The binary tree of the build.
 pub(super) enum BuildNode {
@@ -62,6 +62,23 @@ impl BuildNode {
             bounds,
             children,
             size,
+        }
+    }
+
+    /// The tree's root as a node, which the traversal starts from: a lone leaf gets a node
+    /// of one child.
+    pub(super) fn rooted(self) -> BuildNode {
+        match self {
+            leaf @ BuildNode::Leaf { .. } => BuildNode::inner(
+                *leaf.bounds(),
+                leaf,
+                BuildNode::Leaf {
+                    bounds: Aabb::EMPTY,
+                    start: 0,
+                    count: 0,
+                },
+            ),
+            inner => inner,
         }
     }
 

@@ -1,8 +1,8 @@
-//! Flattening: the build's binary tree as nodes of four and blocks of triangles, depth first,
-//! large subtrees side by side.
+//! Flattening: the build's binary tree as nodes of four and leaf blocks (the bvh's blocks of
+//! triangles, [`super::BoxTree`]'s of box entries), depth first, large subtrees side by side.
 
 use super::build::{BuildNode, Item};
-use super::*;
+use super::{LANES, LEAF, LEAF_START_BITS, NO_CHILD, Node, TreeStats, WIDTH};
 /// The children of a node of four made from a binary node: its two children, then again and
 /// again the inner one of largest area (the last of equals) opened, until there are four or
 /// only leaves. Returns them and their number. The one opened gives its lane to the last
@@ -54,24 +54,28 @@ impl Flattened {
     }
 }
 
-/// A node's part of the lists: its own nodes and blocks, and where they start in the whole.
-pub(super) struct Part<'a> {
+/// A node's part of the lists: its own nodes and leaf blocks (the bvh's [`Block`]s of
+/// triangles, or another tree's blocks of four leaf entries), and where they start in the
+/// whole.
+pub(super) struct Part<'a, L> {
     pub(super) nodes: &'a mut [Node],
     pub(super) node_base: usize,
-    pub(super) blocks: &'a mut [Block],
+    pub(super) blocks: &'a mut [L],
     pub(super) block_base: usize,
 }
 
 /// Flattens `node` into `part` (of exactly its [`BuildNode::size`]): nodes of four, depth first
 /// (a node, then each child's subtree in turn), the leaves' blocks in the same order; returns
 /// its child reference. Children whose subtrees are large are flattened side by side, each in
-/// its own part: the layout is the one flattening them in turn would give.
-pub(super) fn flatten(
-    store: &PrimStore,
+/// its own part: the layout is the one flattening them in turn would give. A leaf's blocks
+/// are filled by `fill(blocks, items)`, its items in [`BuildNode::leaf`]'s order, four to a
+/// block.
+pub(super) fn flatten<L: Send, F: Fn(&mut [L], &[Item]) + Sync>(
+    fill: &F,
     node: &BuildNode,
     items: &[Item],
     depth: usize,
-    part: Part,
+    part: Part<L>,
 ) -> (u32, Flattened) {
     match node {
         BuildNode::Leaf { count: 0, .. } => (NO_CHILD, Flattened::default()),
@@ -80,20 +84,7 @@ pub(super) fn flatten(
             start,
             count,
         } => {
-            // In store order ([`BuildNode::leaf`]).
-            for (block, lanes) in part
-                .blocks
-                .iter_mut()
-                .zip(items[start..start + count].chunks(LANES))
-            {
-                for (l, it) in lanes.iter().enumerate() {
-                    let s = it.slot();
-                    match store.triangle(s) {
-                        Some(t) => block.set(l, t, store.id(s)),
-                        None => block.ids[l] = OTHER_LANE | s,
-                    }
-                }
-            }
+            fill(part.blocks, &items[start..start + count]);
             let stats = TreeStats {
                 leaves: 1,
                 max_depth: depth,
@@ -119,7 +110,7 @@ pub(super) fn flatten(
             let (own, mut nodes) = part.nodes.split_first_mut().expect("sized for its node");
             let mut blocks = part.blocks;
             let (mut node_base, mut block_base) = (part.node_base + 1, part.block_base);
-            let mut parts: [Option<(&BuildNode, Part)>; WIDTH] = Default::default();
+            let mut parts: [Option<(&BuildNode, Part<L>)>; WIDTH] = Default::default();
             for (slot, k) in parts.iter_mut().zip(&kids[..n]) {
                 let s = k.size();
                 let (kn, rest) = std::mem::take(&mut nodes).split_at_mut(s.nodes);
@@ -142,12 +133,12 @@ pub(super) fn flatten(
             if size.blocks > PARALLEL_FLATTEN {
                 rayon::scope(|scope| {
                     for (r, (k, p)) in refs.iter_mut().zip(parts) {
-                        scope.spawn(move |_| *r = flatten(store, k, items, depth + 1, p));
+                        scope.spawn(move |_| *r = flatten(fill, k, items, depth + 1, p));
                     }
                 });
             } else {
                 for (r, (k, p)) in refs.iter_mut().zip(parts) {
-                    *r = flatten(store, k, items, depth + 1, p);
+                    *r = flatten(fill, k, items, depth + 1, p);
                 }
             }
             let mut counted = Flattened::default();

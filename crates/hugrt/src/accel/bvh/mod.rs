@@ -19,7 +19,9 @@
 //!   ([`PrimStore`]), which gives up its own triangles once the blocks hold them.
 //! * Traversal: children nearest first on an explicit stack that remembers each entry's
 //!   distance, so that entries beyond the nearest hit found are dropped unopened; any-hit
-//!   returns at the first hit.
+//!   returns at the first hit. The walk is generic over what a leaf holds
+//!   ([`traverse::walk_tree`]): [`BoxTree`], the same tree over boxes whose leaves name
+//!   entries of another structure, is the adaptive grid's tree over its grids.
 //!
 //! Exactness: a primitive lies in one leaf, whose box holds its box widened by the margin of
 //! [`super::margin`], an absolute slack of 64 ulps of the scene's magnitude that covers the
@@ -27,20 +29,24 @@
 //! planes from the direction's sign bit; a ray lying in a box's face plane (0·∞ = NaN on that
 //! axis) leaves the interval as it was, so it counts as inside.
 
+mod box_tree;
 mod build;
 mod flatten;
 mod spatial;
 mod traverse;
 
-use build::{BuildNode, Builder, Item, MAX_BINS, extents};
+pub(crate) use box_tree::BoxTree;
+use traverse::walk_tree;
+
+use build::{Builder, Item, MAX_BINS, extents};
 use flatten::{Flattened, Part, flatten};
 
-use super::block::{self, Block, BlockRay, EMPTY_LANE, LANES};
+use super::block::{self, Block, LANES};
 use super::margin::margin_for;
 use super::settings::{Key, Settings, key};
 use super::store::{PrimStore, finite};
 use super::{Accel, CellCensus, Counters, HitSink, Primitives, SpecError, StructureStats};
-use crate::geometry::{Aabb, PreparedRay, Ray, Vec3, intersect_triangle};
+use crate::geometry::Ray;
 use glam::Vec4;
 use spatial::SpatialContext;
 
@@ -212,19 +218,7 @@ impl Accel for Bvh {
         } else {
             (builder.build(&mut items, 0, 0, ext), items)
         };
-        // The root is always a node: a lone leaf gets a node of one child.
-        let root = match root {
-            leaf @ BuildNode::Leaf { .. } => BuildNode::inner(
-                *leaf.bounds(),
-                leaf,
-                BuildNode::Leaf {
-                    bounds: Aabb::EMPTY,
-                    start: 0,
-                    count: 0,
-                },
-            ),
-            inner => inner,
-        };
+        let root = root.rooted();
         let size = root.size();
         // Made in parallel: the pages are first touched on both threads.
         let mut nodes: Vec<Node> = (0..size.nodes)
@@ -241,7 +235,19 @@ impl Accel for Bvh {
             blocks: &mut blocks,
             block_base: 0,
         };
-        let (_, Flattened { filled, stats }) = flatten(&store, &root, &items, 0, part);
+        // A leaf's items in store order ([`BuildNode::leaf`]).
+        let fill = |blocks: &mut [Block], items: &[Item]| {
+            for (block, lanes) in blocks.iter_mut().zip(items.chunks(LANES)) {
+                for (l, it) in lanes.iter().enumerate() {
+                    let s = it.slot();
+                    match store.triangle(s) {
+                        Some(t) => block.set(l, t, store.id(s)),
+                        None => block.ids[l] = OTHER_LANE | s,
+                    }
+                }
+            }
+        };
+        let (_, Flattened { filled, stats }) = flatten(&fill, &root, &items, 0, part);
         root.drop_in_parallel();
         let mut bvh = Bvh {
             nodes,

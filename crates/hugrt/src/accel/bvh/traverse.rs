@@ -1,7 +1,10 @@
 //! The query: children nearest first on an explicit stack, leaves' blocks of four triangles
 //! tested together.
 
-use super::*;
+use super::block::{self, Block, BlockRay, EMPTY_LANE};
+use super::{Bvh, LEAF, LEAF_START_BITS, NO_CHILD, Node, OTHER_LANE, STACK, WIDTH};
+use crate::accel::{Counters, HitSink, Primitives};
+use crate::geometry::{PreparedRay, Ray, Vec3, intersect_triangle};
 
 impl Bvh {
     /// Bytes of the nodes and leaf references, without the store.
@@ -83,113 +86,144 @@ impl Bvh {
         // most camera rays of a sparse scene reach none, and for them it was a fifth of the
         // time.
         let mut prepared: Option<(PreparedRay, BlockRay)> = None;
-        let o = ray.origin.to_array();
-        // As `PreparedRay::inv_dir` computes it.
-        let inv = (Vec3::ONE / ray.dir).to_array();
-        // Rows of the near and far planes per axis, from the sign bit (so −0 counts as
-        // negative and its infinite inverse has the right sign).
-        let neg = [
-            ray.dir.x.is_sign_negative(),
-            ray.dir.y.is_sign_negative(),
-            ray.dir.z.is_sign_negative(),
-        ];
-        // Spelled out: `[0, 1, 2].map(..)` was left as a call per ray (8% of a camera frame).
-        let near_row = [
-            3 * neg[0] as usize,
-            1 + 3 * neg[1] as usize,
-            2 + 3 * neg[2] as usize,
-        ];
-        let far_row = [
-            3 * !neg[0] as usize,
-            1 + 3 * !neg[1] as usize,
-            2 + 3 * !neg[2] as usize,
-        ];
         let tmin = ray.tmin;
-        // Left uninitialised: zeroing its 2 KB was 14–17% of a camera frame's time.
-        let mut stack = [const { std::mem::MaybeUninit::<(f32, u32)>::uninit() }; STACK];
-        let mut top = 0;
-        // The entry being opened: its entry distance and child reference. One child hit is
-        // opened at once; of several, the nearest is, and the others wait on the stack,
-        // farthest deepest.
-        let mut current = (tmin, 0u32);
-        loop {
-            let (dist, child) = current;
-            if dist <= sink.tmax() {
+        walk_tree::<S, C, true>(
+            &self.nodes,
+            ray,
+            sink,
+            counters,
+            |start, count, sink, counters| {
+                let prepared = prepared.get_or_insert_with(|| {
+                    let pr = PreparedRay::new(ray);
+                    (pr, BlockRay::new(&pr))
+                });
+                self.blocks[start..start + count]
+                    .iter()
+                    .any(|b| self.test_block(b, prims, prepared, tmin, sink, counters))
+            },
+        );
+    }
+}
+
+/// Walks the four-wide tree `nodes` (its root at 0) along `ray`: children nearest first on an
+/// explicit stack that remembers each entry's distance, so that entries beyond the sink's
+/// `tmax` are dropped unopened. At a leaf, `leaf(start, count, sink, counters)` tests the
+/// leaf's `count` slots from `start` of the tree's leaf list and returns `true` to stop the
+/// walk. With `VISITS`, every node and leaf opened counts as a cell visit (the bvh's `#vt`);
+/// every child box met counts as a box test.
+///
+/// The bvh's query and the adaptive grid's tree over its grids ([`super::BoxTree`]) are
+/// this walk with their own leaves.
+#[inline(always)]
+pub(crate) fn walk_tree<S: HitSink, C: Counters, const VISITS: bool>(
+    nodes: &[Node],
+    ray: &Ray,
+    sink: &mut S,
+    counters: &mut C,
+    mut leaf: impl FnMut(usize, usize, &mut S, &mut C) -> bool,
+) {
+    let o = ray.origin.to_array();
+    // As `PreparedRay::inv_dir` computes it.
+    let inv = (Vec3::ONE / ray.dir).to_array();
+    // Rows of the near and far planes per axis, from the sign bit (so −0 counts as
+    // negative and its infinite inverse has the right sign).
+    let neg = [
+        ray.dir.x.is_sign_negative(),
+        ray.dir.y.is_sign_negative(),
+        ray.dir.z.is_sign_negative(),
+    ];
+    // Spelled out: `[0, 1, 2].map(..)` was left as a call per ray (8% of a camera frame).
+    let near_row = [
+        3 * neg[0] as usize,
+        1 + 3 * neg[1] as usize,
+        2 + 3 * neg[2] as usize,
+    ];
+    let far_row = [
+        3 * !neg[0] as usize,
+        1 + 3 * !neg[1] as usize,
+        2 + 3 * !neg[2] as usize,
+    ];
+    let tmin = ray.tmin;
+    // Left uninitialised: zeroing its 2 KB was 14–17% of a camera frame's time.
+    let mut stack = [const { std::mem::MaybeUninit::<(f32, u32)>::uninit() }; STACK];
+    let mut top = 0;
+    // The entry being opened: its entry distance and child reference. One child hit is
+    // opened at once; of several, the nearest is, and the others wait on the stack,
+    // farthest deepest.
+    let mut current = (tmin, 0u32);
+    loop {
+        let (dist, child) = current;
+        if dist <= sink.tmax() {
+            if VISITS {
                 counters.cell_visit(0);
-                if child & LEAF != 0 {
-                    let start = (child & ((1 << LEAF_START_BITS) - 1)) as usize;
-                    let count = ((child & !LEAF) >> LEAF_START_BITS) as usize + 1;
-                    let prepared = prepared.get_or_insert_with(|| {
-                        let pr = PreparedRay::new(ray);
-                        (pr, BlockRay::new(&pr))
-                    });
-                    for b in &self.blocks[start..start + count] {
-                        if self.test_block(b, prims, prepared, tmin, sink, counters) {
-                            return;
-                        }
-                    }
-                } else {
-                    let node = &self.nodes[child as usize];
-                    let mut t0 = [tmin; WIDTH];
-                    let mut t1 = [sink.tmax(); WIDTH];
-                    for a in 0..3 {
-                        let (lo, hi) = (&node.bounds[near_row[a]], &node.bounds[far_row[a]]);
-                        for k in 0..WIDTH {
-                            // A NaN (0·∞: the ray lies in this face's plane) fails both
-                            // comparisons and leaves the interval as it was.
-                            let tn = (lo[k] - o[a]) * inv[a];
-                            let tf = (hi[k] - o[a]) * inv[a];
-                            t0[k] = if tn > t0[k] { tn } else { t0[k] };
-                            t1[k] = if tf < t1[k] { tf } else { t1[k] };
-                        }
-                    }
-                    // Unused slots have empty boxes and are never hit.
-                    let mut mask = 0u32;
+            }
+            if child & LEAF != 0 {
+                let start = (child & ((1 << LEAF_START_BITS) - 1)) as usize;
+                let count = ((child & !LEAF) >> LEAF_START_BITS) as usize + 1;
+                if leaf(start, count, sink, counters) {
+                    return;
+                }
+            } else {
+                let node = &nodes[child as usize];
+                let mut t0 = [tmin; WIDTH];
+                let mut t1 = [sink.tmax(); WIDTH];
+                for a in 0..3 {
+                    let (lo, hi) = (&node.bounds[near_row[a]], &node.bounds[far_row[a]]);
                     for k in 0..WIDTH {
-                        mask |= ((t0[k] <= t1[k]) as u32) << k;
-                        if node.children[k] != NO_CHILD {
-                            counters.box_test(0);
-                        }
-                    }
-                    if mask != 0 {
-                        let k = mask.trailing_zeros() as usize;
-                        mask &= mask - 1;
-                        if mask == 0 {
-                            current = (t0[k], node.children[k]);
-                            continue;
-                        }
-                        // Several: sorted by entry distance, farthest first, by insertion.
-                        let mut hits = [(0f32, 0u32); WIDTH];
-                        hits[0] = (t0[k], node.children[k]);
-                        let mut n = 1;
-                        while mask != 0 {
-                            let k = mask.trailing_zeros() as usize;
-                            mask &= mask - 1;
-                            let mut i = n;
-                            while i > 0 && hits[i - 1].0 < t0[k] {
-                                hits[i] = hits[i - 1];
-                                i -= 1;
-                            }
-                            hits[i] = (t0[k], node.children[k]);
-                            n += 1;
-                        }
-                        for &h in &hits[..n - 1] {
-                            stack[top].write(h);
-                            top += 1;
-                        }
-                        current = hits[n - 1];
-                        continue;
+                        // A NaN (0·∞: the ray lies in this face's plane) fails both
+                        // comparisons and leaves the interval as it was.
+                        let tn = (lo[k] - o[a]) * inv[a];
+                        let tf = (hi[k] - o[a]) * inv[a];
+                        t0[k] = if tn > t0[k] { tn } else { t0[k] };
+                        t1[k] = if tf < t1[k] { tf } else { t1[k] };
                     }
                 }
+                // Unused slots have empty boxes and are never hit.
+                let mut mask = 0u32;
+                for k in 0..WIDTH {
+                    mask |= ((t0[k] <= t1[k]) as u32) << k;
+                    if node.children[k] != NO_CHILD {
+                        counters.box_test(0);
+                    }
+                }
+                if mask != 0 {
+                    let k = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    if mask == 0 {
+                        current = (t0[k], node.children[k]);
+                        continue;
+                    }
+                    // Several: sorted by entry distance, farthest first, by insertion.
+                    let mut hits = [(0f32, 0u32); WIDTH];
+                    hits[0] = (t0[k], node.children[k]);
+                    let mut n = 1;
+                    while mask != 0 {
+                        let k = mask.trailing_zeros() as usize;
+                        mask &= mask - 1;
+                        let mut i = n;
+                        while i > 0 && hits[i - 1].0 < t0[k] {
+                            hits[i] = hits[i - 1];
+                            i -= 1;
+                        }
+                        hits[i] = (t0[k], node.children[k]);
+                        n += 1;
+                    }
+                    for &h in &hits[..n - 1] {
+                        stack[top].write(h);
+                        top += 1;
+                    }
+                    current = hits[n - 1];
+                    continue;
+                }
             }
-            if top == 0 {
-                break;
-            }
-            top -= 1;
-            // SAFETY: every entry below `top` has been written: `top` grows only by one, right
-            // after `stack[top].write` (a bounds-checked index, so no write lands outside; the
-            // depth bound behind `STACK` keeps it from panicking).
-            current = unsafe { stack[top].assume_init() };
         }
+        if top == 0 {
+            break;
+        }
+        top -= 1;
+        // SAFETY: every entry below `top` has been written: `top` grows only by one, right
+        // after `stack[top].write` (a bounds-checked index, so no write lands outside; the
+        // depth bound behind `STACK` keeps it from panicking).
+        current = unsafe { stack[top].assume_init() };
     }
 }
