@@ -4,23 +4,9 @@
 
 use crate::load_scene;
 use anyhow::{Context, Result, bail};
-use hugrt::bench::{BenchRow, Candidate, Workload, bench_scene};
+use hugrt::bench::{BenchRow, Candidate, DEFAULT_SCENES, Workload, bench_scene, write_csv};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::path::{Path, PathBuf};
-
-/// What `hugrt bench` measures when no scene is named: built in, so that it runs anywhere.
-pub const DEFAULT_SCENES: &[&str] = &[
-    "builtin:kitchen",
-    "builtin:building",
-    "builtin:stadium",
-    "builtin:room:1000000",
-];
-
-/// Median of timings (the upper one of an even count).
-pub(crate) fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
-}
 
 pub struct Options {
     pub scenes: Vec<String>,
@@ -91,7 +77,10 @@ pub fn run(o: Options) -> Result<()> {
             .with_context(|| format!("writing {}", path.display()))?;
     }
     if let Some(path) = &o.csv {
-        write_csv(path, &rows).with_context(|| format!("writing {}", path.display()))?;
+        let file =
+            std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?;
+        write_csv(std::io::BufWriter::new(file), &rows)
+            .with_context(|| format!("writing {}", path.display()))?;
     }
     let wrong: Vec<String> = rows
         .iter()
@@ -183,79 +172,5 @@ fn print_table(rows: &[BenchRow]) -> Result<()> {
             }
         }
     }
-    Ok(())
-}
-
-/// One CSV record per row: the table's columns, flat, with the per-level counters left to
-/// the JSON.
-#[derive(serde::Serialize)]
-struct CsvRow<'a> {
-    scene: &'a str,
-    primitives: usize,
-    structure: &'a str,
-    rays: u64,
-    hits: u64,
-    build_ms: f64,
-    build_min_ms: f64,
-    build_max_ms: f64,
-    trace_ms: f64,
-    trace_min_ms: f64,
-    trace_max_ms: f64,
-    mrays_per_s: f64,
-    memory_bytes: usize,
-    bytes_per_primitive: f64,
-    n_c: usize,
-    r_etnc: f64,
-    n_adc: f64,
-    n_aoifc: f64,
-    r_fvwv: f64,
-    n_rprt: f64,
-    n_tac: u64,
-    n_at: f64,
-    t_tt_over_t_tr: Option<f64>,
-    pit_per_ray: f64,
-    pi_per_ray: f64,
-    bbi_per_ray: f64,
-    vt_per_ray: f64,
-    differences: u64,
-    compared: &'a str,
-}
-
-fn write_csv(path: &Path, rows: &[BenchRow]) -> Result<()> {
-    let mut w = csv::Writer::from_path(path)?;
-    for r in rows {
-        w.serialize(CsvRow {
-            scene: &r.scene,
-            primitives: r.primitives,
-            structure: &r.structure,
-            rays: r.rays,
-            hits: r.hits,
-            build_ms: r.build.median_ms,
-            build_min_ms: r.build.min_ms,
-            build_max_ms: r.build.max_ms,
-            trace_ms: r.trace.median_ms,
-            trace_min_ms: r.trace.min_ms,
-            trace_max_ms: r.trace.max_ms,
-            mrays_per_s: r.mrays_per_s,
-            memory_bytes: r.memory_bytes,
-            bytes_per_primitive: r.bytes_per_primitive,
-            n_c: r.septet.n_c,
-            r_etnc: r.septet.r_etnc,
-            n_adc: r.septet.n_adc,
-            n_aoifc: r.septet.n_aoifc,
-            r_fvwv: r.septet.r_fvwv,
-            n_rprt: r.septet.n_rprt,
-            n_tac: r.septet.n_tac,
-            n_at: r.septet.n_at,
-            t_tt_over_t_tr: r.triplet.t_tt_over_t_tr,
-            pit_per_ray: r.per_ray.pit,
-            pi_per_ray: r.per_ray.pi,
-            bbi_per_ray: r.per_ray.bbi,
-            vt_per_ray: r.per_ray.vt,
-            differences: r.differences,
-            compared: r.compared,
-        })?;
-    }
-    w.flush()?;
     Ok(())
 }

@@ -13,12 +13,16 @@ macro_rules! say {
 mod bench;
 mod report;
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result, anyhow, bail};
+use clap::builder::TypedValueParser as _;
 use clap::{Parser, Subcommand};
 use hugrt::accel::{AnyAccel, STRUCTURES};
+use hugrt::batch::{HitFormat, Query};
 use hugrt::bench::Workload;
-use hugrt::render::{RenderSettings, SoftShadows, render, render_soft};
-use hugrt::scene::Scene;
+use hugrt::render::{DEFAULT_SCENE, ImageFormat, RenderJob, check_image, save_image};
+use hugrt::scene::write::SceneFormat;
+use hugrt::scene::{Scene, View, generate};
+use hugrt::stats::StatsReport;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::path::PathBuf;
 use std::time::Instant;
@@ -43,134 +47,30 @@ enum Command {
     /// With no SCENE, renders the built-in kitchen (EG95's case: a room with dense clusters of
     /// small tessellated objects). SCENE is an .nff, .ply or .obj file (optionally .gz),
     /// builtin:room[:TRIANGLES] or builtin:KIND[:SIZE] (see `hugrt gen`).
-    Render {
-        /// Scene file (default: the built-in kitchen).
-        scene: Option<String>,
-        /// Output PNG.
-        #[arg(short, long, default_value = "hugrt.png")]
-        output: PathBuf,
-        #[arg(long, default_value = "hug", help = ACCEL_HELP)]
-        accel: String,
-        #[command(flatten)]
-        image: ImageArgs,
-        /// Worker threads (default: all cores).
-        #[arg(long)]
-        threads: Option<usize>,
-        /// Write ray counts and timings as JSON.
-        #[arg(long)]
-        stats_json: Option<PathBuf>,
-        /// Also count ray-primitive tests, ray-box tests and cells visited per level (slower).
-        #[arg(long)]
-        counters: bool,
-        /// No progress bar.
-        #[arg(short, long)]
-        quiet: bool,
-        /// Render a scene with no primitives (a blank image) rather than fail.
-        #[arg(long)]
-        allow_empty: bool,
-        #[command(flatten)]
-        view: ViewArgs,
-    },
+    Render(RenderArgs),
     /// Batch ray queries: read a rays file, write a hits file (the embree-peer format).
     ///
     /// Rays: little-endian f32 records `ox oy oz tmin dx dy dz tmax` (32 bytes). Hits: per ray
     /// f32 t (+inf on a miss) then u32 primitive index (0xFFFFFFFF on a miss). With --all-hits:
     /// per ray a u32 count, then that many (f32 t, u32 primitive) pairs in order of t.
-    Trace {
-        /// Scene file (.nff, .ply, .obj, optionally .gz), builtin:room[:TRIANGLES] or builtin:KIND[:SIZE].
-        scene: String,
-        /// Rays to trace (32-byte records, no header).
-        #[arg(long)]
-        rays: PathBuf,
-        /// Where to write the hits (8-byte records, one per ray, in ray order).
-        #[arg(long)]
-        hits: PathBuf,
-        #[arg(long, default_value = "hug", help = ACCEL_HELP)]
-        accel: String,
-        /// Occlusion queries: t = 1.0 and index 0 when anything is hit.
-        #[arg(long, conflicts_with = "all_hits")]
-        any_hit: bool,
-        /// Every hit along each ray in [tmin, tmax], each primitive once, in order of t: per
-        /// ray a u32 count, then that many (f32 t, u32 primitive) pairs, little-endian.
-        #[arg(long)]
-        all_hits: bool,
-        /// basic: t and primitive (8 bytes a ray, embree-peer's); full: also the barycentric
-        /// u, v and the unit geometric normal (28 bytes: f32 t, u32 primitive, f32 u v nx ny nz).
-        #[arg(long, value_enum, default_value_t = HitFormat::Basic)]
-        hit_format: HitFormat,
-        /// Worker threads (default: all cores).
-        #[arg(long)]
-        threads: Option<usize>,
-        /// Trace this many times and report the median time (as embree-peer's --repeat).
-        #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=1000))]
-        repeat: u32,
-        /// Afterwards, count ray-primitive tests, hits, ray-box tests and cells visited per
-        /// ray and level (a second, untimed pass).
-        #[arg(long)]
-        counters: bool,
-    },
+    Trace(TraceArgs),
     /// Scene statistics (SCG97 Fig. 4) and the structure's own (cells, references, memory).
-    Stats {
-        /// Scene file (.nff, .ply, .obj, optionally .gz), builtin:room[:TRIANGLES] or builtin:KIND[:SIZE].
-        scene: String,
-        #[arg(long, default_value = "hug", help = ACCEL_HELP)]
-        accel: String,
-        /// Print JSON instead of text.
-        #[arg(long)]
-        json: bool,
-    },
+    Stats(StatsArgs),
     /// Generate one of the papers' kinds of scene, deterministically per seed, as NFF (with
     /// camera, lights and materials) or binary PLY (triangles only), by the output's extension.
     ///
-    /// Kinds: kitchen, building, city, garden, sphereflake, stadium (`hugrt gen --help` lists
-    /// what SIZE means for each). The same scenes are `builtin:KIND[:SIZE]` for the other
-    /// commands.
-    Gen {
-        /// What to generate.
-        #[arg(value_parser = clap::builder::PossibleValuesParser::new(["kitchen", "building", "city", "garden", "sphereflake", "stadium"]))]
-        kind: String,
-        /// Detail or extent (0: the kind's default). kitchen: detail (2); building: kitchens
-        /// (4); city: blocks per side / 4 (2); garden: plants / 16 (2); sphereflake: depth (4);
-        /// stadium: detail of the objects in it (2).
-        #[arg(long, default_value_t = 0)]
-        size: u32,
-        #[arg(long, default_value_t = 1)]
-        seed: u64,
-        /// Output file: .nff or .ply.
-        #[arg(short, long)]
-        output: PathBuf,
-    },
+    /// `--size`'s help says what each kind is and what its size means. The same scenes are
+    /// `builtin:KIND[:SIZE]` for the other commands.
+    Gen(GenArgs),
     /// Regenerate experiments of the papers: each target writes DIR/TARGET/ with a report
     /// (published beside measured, and a verdict), its data as CSV and JSON.
     ///
     /// Targets: scg97-scenes (SCG97 Fig. 4, the test scenes' statistics), rtnews-spd (RTNews'
     /// table of grids on the SPD scenes). `all` runs every target.
-    Reproduce {
-        /// Targets to run.
-        #[arg(required = true)]
-        targets: Vec<String>,
-        /// Folder to write into.
-        #[arg(short, long, default_value = "reproduce")]
-        output: PathBuf,
-        /// Smaller scenes, for a first look.
-        #[arg(long)]
-        quick: bool,
-        /// Where the SPD scenes are (NAME.nff.gz).
-        #[arg(long, default_value = "../shared/scenes/spd")]
-        spd_dir: PathBuf,
-        /// Worker threads (default: all cores).
-        #[arg(long)]
-        threads: Option<usize>,
-    },
+    Reproduce(ReproduceArgs),
     /// List the structures and the keys of their specs: what each key accepts, its default and
     /// what it does (`--json` for scripts).
-    Structures {
-        /// Only this structure.
-        name: Option<String>,
-        /// Print JSON instead of text.
-        #[arg(long)]
-        json: bool,
-    },
+    Structures(StructuresArgs),
     /// Measure structures on the same work: build and trace times with their spread, Mrays/s,
     /// memory, Havran's septet and triplet, the papers' counters per ray and level, and whether
     /// every structure gives the first one's answers (an error when not).
@@ -178,40 +78,173 @@ enum Command {
     /// With no scene: the built-in kitchen, building of four kitchens, stadium and a room of a
     /// million primitives. `--rays whitted` renders each scene's image with every structure and
     /// compares the pixels; `camera` and `incoherent` compare the hits ray by ray.
-    Bench {
-        /// Scenes (files, builtin:room[:TRIANGLES] or builtin:KIND[:SIZE]).
-        scenes: Vec<String>,
-        /// Structures to measure (repeatable; the first is the reference for the answers).
-        #[arg(long = "accel", default_value = "hug", help = ACCEL_HELP)]
-        accels: Vec<String>,
-        /// The work: the SPD Whitted rendering, camera rays or incoherent rays.
-        #[arg(long, value_enum, default_value_t = RayKind::Whitted)]
-        rays: RayKind,
-        /// Incoherent rays per run.
-        #[arg(long, default_value_t = 1_000_000, value_parser = clap::value_parser!(u64).range(1..=1_000_000_000))]
-        ray_count: u64,
-        /// Camera rays: image side (side² rays).
-        #[arg(long, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(1..=65536))]
-        camera: u32,
-        /// The Whitted rendering's image.
-        #[command(flatten)]
-        image: ImageArgs,
-        /// Worker threads (default: all cores).
-        #[arg(long)]
-        threads: Option<usize>,
-        /// Runs per timing (the median is reported, with the extremes).
-        #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=1000))]
-        repeat: u32,
-        /// Write the rows, per-level counters included, as JSON.
-        #[arg(long)]
-        json: Option<PathBuf>,
-        /// Write the rows as CSV.
-        #[arg(long)]
-        csv: Option<PathBuf>,
-        /// No progress bar.
-        #[arg(short, long)]
-        quiet: bool,
-    },
+    Bench(BenchArgs),
+}
+
+#[derive(clap::Args)]
+struct RenderArgs {
+    /// Scene file (default: the built-in kitchen).
+    scene: Option<String>,
+    /// Output PNG.
+    #[arg(short, long, default_value = "hugrt.png")]
+    output: PathBuf,
+    #[arg(long, default_value = "hug", help = ACCEL_HELP)]
+    accel: String,
+    #[command(flatten)]
+    image: ImageArgs,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Write ray counts and timings as JSON.
+    #[arg(long)]
+    stats_json: Option<PathBuf>,
+    /// Also count ray-primitive tests, ray-box tests and cells visited per level (slower).
+    #[arg(long)]
+    counters: bool,
+    /// No progress bar.
+    #[arg(short, long)]
+    quiet: bool,
+    /// Render a scene with no primitives (a blank image) rather than fail.
+    #[arg(long)]
+    allow_empty: bool,
+    #[command(flatten)]
+    view: ViewArgs,
+}
+
+#[derive(clap::Args)]
+struct TraceArgs {
+    /// Scene file (.nff, .ply, .obj, optionally .gz), builtin:room[:TRIANGLES] or builtin:KIND[:SIZE].
+    scene: String,
+    /// Rays to trace (32-byte records, no header).
+    #[arg(long)]
+    rays: PathBuf,
+    /// Where to write the hits (8-byte records, one per ray, in ray order).
+    #[arg(long)]
+    hits: PathBuf,
+    #[arg(long, default_value = "hug", help = ACCEL_HELP)]
+    accel: String,
+    /// Occlusion queries: t = 1.0 and index 0 when anything is hit.
+    #[arg(long, conflicts_with = "all_hits")]
+    any_hit: bool,
+    /// Every hit along each ray in [tmin, tmax], each primitive once, in order of t: per
+    /// ray a u32 count, then that many (f32 t, u32 primitive) pairs, little-endian.
+    #[arg(long)]
+    all_hits: bool,
+    /// basic: t and primitive (8 bytes a ray, embree-peer's); full: also the barycentric
+    /// u, v and the unit geometric normal (28 bytes: f32 t, u32 primitive, f32 u v nx ny nz).
+    #[arg(long, default_value = "basic", value_parser = clap::builder::PossibleValuesParser::new(HitFormat::NAMES).map(|s| s.parse::<HitFormat>().expect("a listed format")))]
+    hit_format: HitFormat,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Trace this many times and report the median time (as embree-peer's --repeat).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=1000))]
+    repeat: u32,
+    /// Afterwards, count ray-primitive tests, hits, ray-box tests and cells visited per
+    /// ray and level (a second, untimed pass).
+    #[arg(long)]
+    counters: bool,
+}
+
+#[derive(clap::Args)]
+struct StatsArgs {
+    /// Scene file (.nff, .ply, .obj, optionally .gz), builtin:room[:TRIANGLES] or builtin:KIND[:SIZE].
+    scene: String,
+    #[arg(long, default_value = "hug", help = ACCEL_HELP)]
+    accel: String,
+    /// Print JSON instead of text.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(clap::Args)]
+struct GenArgs {
+    /// What to generate.
+    #[arg(value_parser = clap::builder::PossibleValuesParser::new(generate::KINDS.iter().map(|k| k.0)))]
+    kind: String,
+    #[arg(long, default_value_t = 0, help = size_help())]
+    size: u32,
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Output file: .nff or .ply.
+    #[arg(short, long)]
+    output: PathBuf,
+}
+
+#[derive(clap::Args)]
+struct ReproduceArgs {
+    /// Targets to run.
+    #[arg(required = true)]
+    targets: Vec<String>,
+    /// Folder to write into.
+    #[arg(short, long, default_value = "reproduce")]
+    output: PathBuf,
+    /// Smaller scenes, for a first look.
+    #[arg(long)]
+    quick: bool,
+    /// Where the SPD scenes are (NAME.nff.gz).
+    #[arg(long, default_value = "../shared/scenes/spd")]
+    spd_dir: PathBuf,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+}
+
+#[derive(clap::Args)]
+struct StructuresArgs {
+    /// Only this structure.
+    name: Option<String>,
+    /// Print JSON instead of text.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(clap::Args)]
+struct BenchArgs {
+    /// Scenes (files, builtin:room[:TRIANGLES] or builtin:KIND[:SIZE]).
+    scenes: Vec<String>,
+    /// Structures to measure (repeatable; the first is the reference for the answers).
+    #[arg(long = "accel", default_value = "hug", help = ACCEL_HELP)]
+    accels: Vec<String>,
+    /// The work: the SPD Whitted rendering, camera rays or incoherent rays.
+    #[arg(long, value_enum, default_value_t = RayKind::Whitted)]
+    rays: RayKind,
+    /// Incoherent rays per run.
+    #[arg(long, default_value_t = 1_000_000, value_parser = clap::value_parser!(u64).range(1..=1_000_000_000))]
+    ray_count: u64,
+    /// Camera rays: image side (side² rays).
+    #[arg(long, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(1..=65536))]
+    camera: u32,
+    /// The Whitted rendering's image.
+    #[command(flatten)]
+    image: ImageArgs,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Runs per timing (the median is reported, with the extremes).
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=1000))]
+    repeat: u32,
+    /// Write the rows, per-level counters included, as JSON.
+    #[arg(long)]
+    json: Option<PathBuf>,
+    /// Write the rows as CSV.
+    #[arg(long)]
+    csv: Option<PathBuf>,
+    /// No progress bar.
+    #[arg(short, long)]
+    quiet: bool,
+}
+
+/// `gen --size`'s help, from the kinds' own descriptions.
+fn size_help() -> String {
+    let kinds: Vec<String> = generate::KINDS
+        .iter()
+        .map(|(k, what, default)| format!("{k}: {what} (default {default})"))
+        .collect();
+    format!(
+        "Detail or extent (0: the kind's default). {}",
+        kinds.join("; ")
+    )
 }
 
 /// Where the camera of `render` stands, overriding the scene's (a mesh's default frames its
@@ -233,34 +266,13 @@ struct ViewArgs {
 }
 
 impl ViewArgs {
-    /// The scene's camera with these options applied; an error for a view that cannot be.
-    fn apply(&self, mut camera: hugrt::scene::Camera) -> Result<hugrt::scene::Camera> {
-        if self.eye.is_none() && self.look_at.is_none() && self.up.is_none() && self.fov.is_none() {
-            return Ok(camera);
+    fn view(&self) -> View {
+        View {
+            eye: self.eye,
+            look_at: self.look_at,
+            up: self.up,
+            fov: self.fov,
         }
-        camera.from = self.eye.unwrap_or(camera.from);
-        camera.at = self.look_at.unwrap_or(camera.at);
-        camera.up = self.up.unwrap_or(camera.up);
-        camera.fov_deg = self.fov.unwrap_or(camera.fov_deg);
-        let forward = camera.at - camera.from;
-        if !(camera.fov_deg > 0.0 && camera.fov_deg < 180.0) {
-            bail!(
-                "--fov {}: must be between 0 and 180 degrees",
-                camera.fov_deg
-            );
-        }
-        if forward.length_squared() == 0.0 {
-            bail!("the eye and the point looked at are the same point");
-        }
-        if forward.cross(camera.up).length_squared()
-            <= 1e-12 * forward.length_squared() * camera.up.length_squared()
-        {
-            bail!(
-                "the up direction {} is parallel to the view direction",
-                camera.up
-            );
-        }
-        Ok(camera)
     }
 }
 
@@ -300,35 +312,10 @@ struct ImageArgs {
 }
 
 impl ImageArgs {
-    /// Rejects a bad light radius or image side before any work.
+    /// Rejects a bad light radius or image side before any work ([`check_image`]).
     fn check(&self) -> Result<()> {
-        if let Some(r) = self.soft_shadows
-            && !(r.is_finite() && r >= 0.0)
-        {
-            bail!(
-                "--soft-shadows {r}: the light radius must be a finite fraction of the diagonal, 0 or more"
-            );
-        }
-        for side in [self.width, self.height].into_iter().flatten() {
-            check_side(side)?;
-        }
-        Ok(())
+        Ok(check_image(self.width, self.height, self.soft_shadows)?)
     }
-}
-
-/// An image side hugrt accepts.
-fn check_side(side: u32) -> Result<()> {
-    if side == 0 || side > 65536 {
-        bail!("image size: a side of {side} is not within 1..=65536");
-    }
-    Ok(())
-}
-
-/// What `hugrt trace` writes per ray.
-#[derive(Clone, Copy, Debug, PartialEq, clap::ValueEnum)]
-enum HitFormat {
-    Basic,
-    Full,
 }
 
 /// The work `hugrt bench` measures.
@@ -399,45 +386,26 @@ fn pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
     Ok(b.build()?)
 }
 
-/// Checks a spec before any work: building it over no primitives parses and checks every key
-/// and value at no cost.
+/// Checks a spec before any work ([`AnyAccel::check`]).
 fn check_spec(spec: &str) -> Result<()> {
-    AnyAccel::build(&Scene::from_triangles(Vec::new()), spec)
-        .map(drop)
-        .with_context(|| format!("--accel {spec}"))
-}
-
-/// Fails for a scene with nothing to hit, unless asked to go on.
-fn check_not_empty(name: &str, scene: &Scene, allow_empty: bool) -> Result<()> {
-    if scene.shapes.is_empty() && !allow_empty {
-        bail!("{name}: no primitives (--allow-empty renders it anyway)");
-    }
-    Ok(())
-}
-
-/// Checks that an image can be written where asked, before rendering it.
-fn check_image_path(path: &std::path::Path) -> Result<()> {
-    if path.is_dir() {
-        bail!(
-            "-o {}: is a directory; give a file name ending in .png",
-            path.display()
-        );
-    }
-    if !path
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("png"))
-    {
-        bail!(
-            "-o {}: hugrt writes PNG images; give a name ending in .png",
-            path.display()
-        );
-    }
-    Ok(())
+    AnyAccel::check(spec).with_context(|| format!("--accel {spec}"))
 }
 
 fn run(cli: Cli) -> Result<()> {
     match cli.command {
-        Command::Render {
+        Command::Render(a) => a.run(),
+        Command::Trace(a) => a.run(),
+        Command::Stats(a) => a.run(),
+        Command::Gen(a) => a.run(),
+        Command::Reproduce(a) => a.run(),
+        Command::Structures(a) => a.run(),
+        Command::Bench(a) => a.run(),
+    }
+}
+
+impl RenderArgs {
+    fn run(self) -> Result<()> {
+        let RenderArgs {
             scene,
             output,
             accel,
@@ -448,79 +416,87 @@ fn run(cli: Cli) -> Result<()> {
             quiet,
             allow_empty,
             view,
-        } => {
-            image.check()?;
-            check_spec(&accel)?;
-            check_image_path(&output)?;
-            let name = scene.unwrap_or_else(|| "builtin:kitchen".to_string());
-            pool(threads)?.install(|| {
-                let t = Instant::now();
-                let mut scene = load_scene(&name)?;
-                check_not_empty(&name, &scene, allow_empty)?;
-                scene.camera = view.apply(scene.camera)?;
-                let load_s = t.elapsed().as_secs_f64();
-                let (acc, mut build_s) = build(&scene, &accel)?;
-                let soft = match image.soft_shadows {
-                    Some(r) => {
-                        let t = Instant::now();
-                        let s = SoftShadows::build(&scene, &accel, r)?;
-                        build_s += t.elapsed().as_secs_f64();
-                        Some(s)
-                    }
-                    None => None,
-                };
-                let settings = RenderSettings {
-                    width: image.width.unwrap_or(scene.camera.width),
-                    height: image.height.unwrap_or(scene.camera.height),
-                    depth: image.depth,
-                    counters,
-                };
-                check_side(settings.width)?;
-                check_side(settings.height)?;
-                let bar = ProgressBar::new(settings.height as u64 + 1);
-                bar.set_draw_target(if quiet { ProgressDrawTarget::hidden() } else { ProgressDrawTarget::stderr() });
-                bar.set_style(ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} rows {eta}")?.progress_chars("=> "));
-                let t = Instant::now();
-                let out = match &soft {
-                    Some(s) => render_soft(&scene, &acc, s, &settings, &|n| bar.inc(n)),
-                    None => render(&scene, &acc, &settings, &|n| bar.inc(n)),
-                };
-                let render_s = t.elapsed().as_secs_f64();
-                bar.finish_and_clear();
-                out.image.save(&output).with_context(|| format!("writing {}", output.display()))?;
-                let c = out.counts;
-                let lights = scene.lights.len();
-                say!("scene {name}: {} primitives, {lights} light{}; structure {} ({})", scene.shapes.len(), if lights == 1 { "" } else { "s" }, acc.name(), accel);
-                say!("load {load_s:.3} s, build {build_s:.3} s, render {render_s:.3} s ({:.2} Mrays/s)", c.total_rays() as f64 / render_s / 1e6);
-                say!("eye rays {} (hit {}), shadow rays {} (blocked {}, in a penumbra {}), reflected {}, refracted {}, secondary hits {}",
-                    c.eye_rays, c.eye_hits, c.shadow_rays, c.shadow_hits, c.penumbra_rays, c.reflected_rays, c.refracted_rays, c.secondary_hits);
-                say!("wrote {}", output.display());
-                if let Some(k) = &out.counters {
-                    print_counters(k, c.total_rays())?;
-                }
-                if let Some(path) = stats_json {
-                    let j = hugrt::render::RenderReport {
-                        counts: c,
-                        scene: name.clone(),
-                        accel: accel.clone(),
-                        primitives: scene.shapes.len(),
-                        width: settings.width,
-                        height: settings.height,
-                        load_seconds: load_s,
-                        build_seconds: build_s,
-                        render_seconds: render_s,
-                        accel_memory_bytes: acc.memory_bytes()
-                            + soft.as_ref().map_or(0, |s| s.memory_bytes()),
-                        soft_shadow_radius: soft.as_ref().map(|s| s.radius()),
-                        counters_per_level: out.counters.map(|k| k.used_levels().to_vec()),
-                    };
-                    std::fs::write(&path, serde_json::to_string_pretty(&j)? + "\n")
-                        .with_context(|| format!("writing {}", path.display()))?;
-                }
-                Ok(())
+        } = self;
+        let job = RenderJob {
+            width: image.width,
+            height: image.height,
+            depth: image.depth,
+            counters,
+            soft_shadows: image.soft_shadows,
+            view: view.view(),
+            allow_empty,
+            ..RenderJob::new(scene.as_deref().unwrap_or(DEFAULT_SCENE), &accel)
+        };
+        check_spec(&accel)?;
+        job.check()?;
+        ImageFormat::for_path(&output)?;
+        let pool = pool(threads)?;
+        let bar = ProgressBar::new(0);
+        bar.set_draw_target(if quiet {
+            ProgressDrawTarget::hidden()
+        } else {
+            ProgressDrawTarget::stderr()
+        });
+        bar.set_style(
+            ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} rows {eta}")?
+                .progress_chars("=> "),
+        );
+        let (out, r) = pool
+            .install(|| {
+                job.run(&|rows, total| {
+                    bar.set_length(total);
+                    bar.inc(rows);
+                })
             })
+            .map_err(|e| match e {
+                hugrt::Error::Empty(_) => anyhow!("{e} (--allow-empty renders it anyway)"),
+                e => e.into(),
+            })?;
+        bar.finish_and_clear();
+        save_image(&out.image, &output)?;
+        let c = &r.counts;
+        say!(
+            "scene {}: {} primitives, {} light{}; structure {} ({})",
+            r.scene,
+            r.primitives,
+            r.lights,
+            if r.lights == 1 { "" } else { "s" },
+            r.structure,
+            r.accel
+        );
+        say!(
+            "load {:.3} s, build {:.3} s, render {:.3} s ({:.2} Mrays/s)",
+            r.load_seconds,
+            r.build_seconds,
+            r.render_seconds,
+            c.total_rays() as f64 / r.render_seconds / 1e6
+        );
+        say!(
+            "eye rays {} (hit {}), shadow rays {} (blocked {}, in a penumbra {}), reflected {}, refracted {}, secondary hits {}",
+            c.eye_rays,
+            c.eye_hits,
+            c.shadow_rays,
+            c.shadow_hits,
+            c.penumbra_rays,
+            c.reflected_rays,
+            c.refracted_rays,
+            c.secondary_hits
+        );
+        say!("wrote {}", output.display());
+        if let Some(k) = &out.counters {
+            print_counters(k, c.total_rays())?;
         }
-        Command::Trace {
+        if let Some(path) = stats_json {
+            std::fs::write(&path, serde_json::to_string_pretty(&r)? + "\n")
+                .with_context(|| format!("writing {}", path.display()))?;
+        }
+        Ok(())
+    }
+}
+
+impl TraceArgs {
+    fn run(self) -> Result<()> {
+        let TraceArgs {
             scene,
             rays,
             hits,
@@ -531,188 +507,130 @@ fn run(cli: Cli) -> Result<()> {
             threads,
             repeat,
             counters,
-        } => {
-            check_spec(&accel)?;
-            if (any_hit || all_hits) && hit_format == HitFormat::Full {
-                bail!(
-                    "--hit-format full describes closest hits, not the answers of --any-hit or --all-hits"
-                );
+        } = self;
+        check_spec(&accel)?;
+        let query = match (any_hit, all_hits) {
+            (true, _) => Query::Any,
+            (_, true) => Query::All,
+            _ => Query::Closest,
+        };
+        hugrt::batch::check_format(query, hit_format).context("--hit-format full")?;
+        pool(threads)?.install(|| {
+            let scene = load_scene(&scene)?;
+            let bytes =
+                std::fs::read(&rays).with_context(|| format!("reading {}", rays.display()))?;
+            let ray_list =
+                hugrt::batch::decode_rays(&bytes).with_context(|| rays.display().to_string())?;
+            let (acc, build_s) = build(&scene, &accel)?;
+            let traced = hugrt::batch::trace_timed(
+                &scene,
+                &acc,
+                &ray_list,
+                query,
+                hit_format,
+                repeat as usize,
+            )?;
+            std::fs::write(&hits, &traced.bytes)
+                .with_context(|| format!("writing {}", hits.display()))?;
+            let trace_ms = traced.timing.median_ms;
+            say!(
+                "build {:.1} ms, trace {trace_ms:.1} ms, {} rays, {} hits, {:.2} Mrays/s",
+                build_s * 1e3,
+                ray_list.len(),
+                traced.hits,
+                ray_list.len() as f64 / (trace_ms * 1e-3).max(1e-9) / 1e6
+            );
+            if counters {
+                let c = hugrt::batch::count(&scene, &acc, &ray_list, query);
+                print_counters(&c, ray_list.len() as u64)?;
             }
-            let query = match (any_hit, all_hits) {
-                (true, _) => hugrt::batch::Query::Any,
-                (_, true) => hugrt::batch::Query::All,
-                _ => hugrt::batch::Query::Closest,
-            };
-            pool(threads)?.install(|| {
-                let scene = load_scene(&scene)?;
-                let bytes =
-                    std::fs::read(&rays).with_context(|| format!("reading {}", rays.display()))?;
-                let ray_list = hugrt::batch::decode_rays(&bytes)
-                    .with_context(|| rays.display().to_string())?;
-                let (acc, build_s) = build(&scene, &accel)?;
-                let mut times = Vec::new();
-                let (encoded, hit_count) = if all_hits {
-                    let mut result = Vec::new();
-                    for _ in 0..repeat {
-                        let t = Instant::now();
-                        result = hugrt::batch::trace_all(&scene, &acc, &ray_list);
-                        times.push(t.elapsed().as_secs_f64());
-                    }
-                    let count = result.iter().map(Vec::len).sum::<usize>();
-                    (hugrt::batch::encode_all_hits(&result), count)
-                } else {
-                    let mut result = vec![None; ray_list.len()];
-                    for _ in 0..repeat {
-                        let t = Instant::now();
-                        hugrt::batch::trace_into(&scene, &acc, &ray_list, any_hit, &mut result);
-                        times.push(t.elapsed().as_secs_f64());
-                    }
-                    let encoded = match hit_format {
-                        HitFormat::Basic => hugrt::batch::encode_hits(&result),
-                        HitFormat::Full => {
-                            hugrt::batch::encode_full_hits(&scene, &ray_list, &result)
-                        }
-                    };
-                    (encoded, result.iter().filter(|h| h.is_some()).count())
-                };
-                let trace_s = bench::median(times);
-                std::fs::write(&hits, encoded)
-                    .with_context(|| format!("writing {}", hits.display()))?;
-                say!(
-                    "build {:.1} ms, trace {:.1} ms, {} rays, {} hits, {:.2} Mrays/s",
-                    build_s * 1e3,
-                    trace_s * 1e3,
-                    ray_list.len(),
-                    hit_count,
-                    ray_list.len() as f64 / trace_s.max(1e-9) / 1e6
-                );
-                if counters {
-                    let c = hugrt::batch::count(&scene, &acc, &ray_list, query);
-                    print_counters(&c, ray_list.len() as u64)?;
-                }
-                Ok(())
-            })
-        }
-        Command::Stats {
+            Ok(())
+        })
+    }
+}
+
+impl StatsArgs {
+    fn run(self) -> Result<()> {
+        let StatsArgs {
             scene: name,
             accel,
             json,
-        } => {
-            check_spec(&accel)?;
-            let scene = load_scene(&name)?;
-            let s = hugrt::stats::scene_stats(&scene);
-            let (acc, build_s) = build(&scene, &accel)?;
-            let st = acc.stats();
-            if json {
-                let j = serde_json::json!({
-                    "scene": name, "accel": accel, "scene_stats": s, "build_seconds": build_s,
-                    "scene_memory_bytes": scene.memory_bytes(),
-                    "structure": st.entries.iter().map(|(k, v)| (k.clone(), serde_json::json!(v))).collect::<serde_json::Map<_, _>>(),
-                    "levels": st.levels,
-                    "depths": st.depths,
-                });
-                say!("{}", serde_json::to_string_pretty(&j)?);
-            } else {
-                report::print_scene_stats(&name, &s, scene.memory_bytes())?;
-                report::print_structure_stats(&accel, build_s, &st)?;
-            }
-            Ok(())
+        } = self;
+        check_spec(&accel)?;
+        let r = StatsReport::measure(&name, &accel)?;
+        if json {
+            say!("{}", serde_json::to_string_pretty(&r)?);
+        } else {
+            report::print_scene_stats(&name, &r.scene_stats, r.scene_memory_bytes)?;
+            report::print_structure_stats(&accel, r.build_seconds, &r.structure)?;
         }
-        Command::Gen {
+        Ok(())
+    }
+}
+
+impl GenArgs {
+    fn run(self) -> Result<()> {
+        let GenArgs {
             kind,
             size,
             seed,
             output,
-        } => {
-            let max = hugrt::scene::generate::max_size(&kind);
-            if size > max {
-                bail!("--size {size} for {kind}: at most {max}");
-            }
-            let name = output.to_string_lossy().to_ascii_lowercase();
-            type Writer = fn(&Scene, &mut std::io::BufWriter<std::fs::File>) -> std::io::Result<()>;
-            let write: Writer = if name.ends_with(".nff") {
-                |s, w| hugrt::scene::write::write_nff(s, w)
-            } else if name.ends_with(".ply") {
-                |s, w| hugrt::scene::write::write_ply(s, w)
-            } else {
-                bail!("{}: the output must end in .nff or .ply", output.display());
-            };
-            let size = if size == 0 {
-                hugrt::scene::generate::default_size(&kind)
-            } else {
-                size
-            };
-            let scene = hugrt::scene::generate::generate(&kind, size, seed)
-                .with_context(|| format!("unknown kind {kind}"))?;
-            let file = std::fs::File::create(&output)
-                .with_context(|| format!("creating {}", output.display()))?;
-            let mut w = std::io::BufWriter::new(file);
-            write(&scene, &mut w)
-                .and_then(|()| std::io::Write::flush(&mut w))
-                .with_context(|| format!("writing {}", output.display()))?;
-            say!(
-                "{kind} (size {size}, seed {seed}): {} primitives, {} lights -> {}",
-                scene.shapes.len(),
-                scene.lights.len(),
-                output.display()
-            );
-            Ok(())
-        }
-        Command::Reproduce {
+        } = self;
+        let size = generate::resolve_size(&kind, size)?;
+        SceneFormat::for_path(&output)?;
+        let scene = generate::generate(&kind, size, seed).expect("a resolved kind");
+        hugrt::scene::write::save(&scene, &output)?;
+        say!(
+            "{kind} (size {size}, seed {seed}): {} primitives, {} lights -> {}",
+            scene.shapes.len(),
+            scene.lights.len(),
+            output.display()
+        );
+        Ok(())
+    }
+}
+
+impl ReproduceArgs {
+    fn run(self) -> Result<()> {
+        let ReproduceArgs {
             targets,
             output,
             quick,
             spd_dir,
             threads,
-        } => {
-            let all: Vec<String> = hugrt::reproduce::TARGETS
-                .iter()
-                .map(|t| t.name.to_string())
-                .collect();
-            let targets = if targets.iter().any(|t| t == "all") {
-                all.clone()
-            } else {
-                targets
-            };
-            for t in &targets {
-                if !hugrt::reproduce::TARGETS.iter().any(|x| x.name == t) {
-                    bail!("unknown target '{t}'; targets: {}, all", all.join(", "));
-                }
-            }
-            let options = hugrt::reproduce::Options { quick, spd_dir };
-            pool(threads)?.install(|| {
-                for t in &targets {
-                    let dir = hugrt::reproduce::run(t, &options, &output)?;
-                    say!("{t}: {}", dir.join("report.md").display());
-                }
-                Ok(())
-            })
-        }
-        Command::Structures { name, json } => {
-            let names: Vec<&str> = match &name {
-                Some(n) if !STRUCTURES.contains(&n.as_str()) => bail!(
-                    "unknown structure '{n}'; valid structures: {}",
-                    STRUCTURES.join(", ")
-                ),
-                Some(n) => vec![n.as_str()],
-                None => STRUCTURES.to_vec(),
-            };
-            let table: Vec<(&str, Vec<hugrt::accel::KeyHelp>)> = names
-                .iter()
-                .map(|n| (*n, AnyAccel::keys(n).expect("a listed structure")))
-                .collect();
-            if json {
-                let j: serde_json::Map<String, serde_json::Value> = table
-                    .iter()
-                    .map(|(n, k)| Ok((n.to_string(), serde_json::to_value(k)?)))
-                    .collect::<Result<_>>()?;
-                say!("{}", serde_json::to_string_pretty(&j)?);
-            } else {
-                report::print_structures(&table)?;
+        } = self;
+        let targets = hugrt::reproduce::resolve(&targets)?;
+        let options = hugrt::reproduce::Options { quick, spd_dir };
+        pool(threads)?.install(|| {
+            for t in targets {
+                let dir = hugrt::reproduce::run(t.name, &options, &output)?;
+                say!("{}: {}", t.name, dir.join("report.md").display());
             }
             Ok(())
+        })
+    }
+}
+
+impl StructuresArgs {
+    fn run(self) -> Result<()> {
+        let StructuresArgs { name, json } = self;
+        let table = AnyAccel::describe(name.as_deref())?;
+        if json {
+            let j: serde_json::Map<String, serde_json::Value> = table
+                .iter()
+                .map(|(n, k)| Ok((n.to_string(), serde_json::to_value(k)?)))
+                .collect::<Result<_>>()?;
+            say!("{}", serde_json::to_string_pretty(&j)?);
+        } else {
+            report::print_structures(&table)?;
         }
-        Command::Bench {
+        Ok(())
+    }
+}
+
+impl BenchArgs {
+    fn run(self) -> Result<()> {
+        let BenchArgs {
             scenes,
             accels,
             rays,
@@ -724,41 +642,40 @@ fn run(cli: Cli) -> Result<()> {
             json,
             csv,
             quiet,
-        } => {
-            if accels.is_empty() {
-                bail!(
-                    "no structure given; valid structures: {}",
-                    STRUCTURES.join(", ")
-                );
-            }
-            image.check()?;
-            for a in &accels {
-                check_spec(a)?;
-            }
-            let workload = match rays {
-                RayKind::Camera => Workload::Camera { side: camera },
-                RayKind::Incoherent => Workload::Incoherent {
-                    rays: ray_count as usize,
-                },
-                RayKind::Whitted => Workload::Whitted {
-                    width: image.width,
-                    height: image.height,
-                    depth: image.depth,
-                    soft_shadows: image.soft_shadows,
-                },
-            };
-            pool(threads)?.install(|| {
-                bench::run(bench::Options {
-                    scenes,
-                    accels,
-                    workload,
-                    repeat: repeat as usize,
-                    json,
-                    csv,
-                    quiet,
-                })
-            })
+        } = self;
+        if accels.is_empty() {
+            bail!(
+                "no structure given; valid structures: {}",
+                STRUCTURES.join(", ")
+            );
         }
+        image.check()?;
+        for a in &accels {
+            check_spec(a)?;
+        }
+        let workload = match rays {
+            RayKind::Camera => Workload::Camera { side: camera },
+            RayKind::Incoherent => Workload::Incoherent {
+                rays: ray_count as usize,
+            },
+            RayKind::Whitted => Workload::Whitted {
+                width: image.width,
+                height: image.height,
+                depth: image.depth,
+                soft_shadows: image.soft_shadows,
+            },
+        };
+        pool(threads)?.install(|| {
+            bench::run(bench::Options {
+                scenes,
+                accels,
+                workload,
+                repeat: repeat as usize,
+                json,
+                csv,
+                quiet,
+            })
+        })
     }
 }
 

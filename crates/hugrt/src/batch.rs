@@ -103,6 +103,108 @@ pub enum Query {
     All,
 }
 
+impl Query {
+    /// The query's name on the command line (`trace --any-hit`, `--all-hits`).
+    pub fn name(&self) -> &'static str {
+        match self {
+            Query::Closest => "closest-hit",
+            Query::Any => "any-hit",
+            Query::All => "all-hits",
+        }
+    }
+}
+
+/// How closest hits are written (module documentation): `basic`, `t` and primitive (8
+/// bytes, embree-peer's), or `full`, with the barycentrics and the normal (28 bytes). Any-hit
+/// and all-hits answers have one format each.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum HitFormat {
+    #[default]
+    Basic,
+    Full,
+}
+
+impl HitFormat {
+    /// Every format's name, as `str::parse` reads it.
+    pub const NAMES: &[&str] = &["basic", "full"];
+}
+
+impl std::str::FromStr for HitFormat {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "basic" => Ok(HitFormat::Basic),
+            "full" => Ok(HitFormat::Full),
+            _ => Err(format!(
+                "unknown hit format '{s}'; formats: {}",
+                Self::NAMES.join(", ")
+            )),
+        }
+    }
+}
+
+/// A query and a hits format that do not go together.
+#[derive(Debug, thiserror::Error)]
+#[error("the full hits format describes closest hits, not the answers of {} queries", .0.name())]
+pub struct FormatError(pub Query);
+
+/// Checks that `format` can write the answers of `query`, before any work.
+pub fn check_format(query: Query, format: HitFormat) -> Result<(), FormatError> {
+    if format == HitFormat::Full && query != Query::Closest {
+        return Err(FormatError(query));
+    }
+    Ok(())
+}
+
+/// A timed batch: the hits file's bytes, the number of hits, and the trace times.
+pub struct Traced {
+    pub bytes: Vec<u8>,
+    pub hits: usize,
+    pub timing: crate::bench::Timing,
+}
+
+/// Traces `rays` `repeat` times (at least once) on the current rayon pool, timing each run,
+/// and encodes the last run's answers to `query` in `format` (one buffer for every run, as
+/// [`trace_into`] says why).
+pub fn trace_timed<P: Primitives>(
+    prims: &P,
+    accel: &AnyAccel,
+    rays: &[Ray],
+    query: Query,
+    format: HitFormat,
+    repeat: usize,
+) -> Result<Traced, FormatError> {
+    check_format(query, format)?;
+    let mut times = Vec::new();
+    let mut timed = |f: &mut dyn FnMut()| {
+        for _ in 0..repeat.max(1) {
+            let t = std::time::Instant::now();
+            f();
+            times.push(t.elapsed().as_secs_f64());
+        }
+    };
+    let (bytes, hits) = if query == Query::All {
+        let mut result = Vec::new();
+        timed(&mut || result = trace_all(prims, accel, rays));
+        let hits = result.iter().map(Vec::len).sum();
+        (encode_all_hits(&result), hits)
+    } else {
+        let mut result = vec![None; rays.len()];
+        timed(&mut || trace_into(prims, accel, rays, query == Query::Any, &mut result));
+        let hits = result.iter().filter(|h| h.is_some()).count();
+        let bytes = match format {
+            HitFormat::Basic => encode_hits(&result),
+            HitFormat::Full => encode_full_hits(prims, rays, &result),
+        };
+        (bytes, hits)
+    };
+    Ok(Traced {
+        bytes,
+        hits,
+        timing: crate::bench::Timing::from_secs(times),
+    })
+}
+
 /// Every hit of every ray, in order of `t` ([`AnyAccel::all_hits`]), on the current rayon
 /// pool.
 pub fn trace_all<P: Primitives>(prims: &P, accel: &AnyAccel, rays: &[Ray]) -> Vec<Vec<Hit>> {

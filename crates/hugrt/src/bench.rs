@@ -71,6 +71,14 @@ impl<'a> Candidate<'a> {
     }
 }
 
+/// What `hugrt bench` measures when no scene is named: built in, so that it runs anywhere.
+pub const DEFAULT_SCENES: &[&str] = &[
+    "builtin:kitchen",
+    "builtin:building",
+    "builtin:stadium",
+    "builtin:room:1000000",
+];
+
 /// Median and extremes of repeated timings, in milliseconds.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
 pub struct Timing {
@@ -407,4 +415,80 @@ pub fn differing_pixels(a: &image::RgbImage, b: &image::RgbImage) -> u64 {
         return u64::from(a.width() * a.height()).max(u64::from(b.width() * b.height()));
     }
     a.pixels().zip(b.pixels()).filter(|(x, y)| x != y).count() as u64
+}
+
+/// One CSV record per row: the table's columns, flat, with the per-level counters left to
+/// the JSON.
+#[derive(Serialize)]
+struct CsvRow<'a> {
+    scene: &'a str,
+    primitives: usize,
+    structure: &'a str,
+    rays: u64,
+    hits: u64,
+    build_ms: f64,
+    build_min_ms: f64,
+    build_max_ms: f64,
+    trace_ms: f64,
+    trace_min_ms: f64,
+    trace_max_ms: f64,
+    mrays_per_s: f64,
+    memory_bytes: usize,
+    bytes_per_primitive: f64,
+    n_c: usize,
+    r_etnc: f64,
+    n_adc: f64,
+    n_aoifc: f64,
+    r_fvwv: f64,
+    n_rprt: f64,
+    n_tac: u64,
+    n_at: f64,
+    t_tt_over_t_tr: Option<f64>,
+    pit_per_ray: f64,
+    pi_per_ray: f64,
+    bbi_per_ray: f64,
+    vt_per_ray: f64,
+    differences: u64,
+    compared: &'a str,
+}
+
+/// Writes `rows` as CSV (`docs/output-formats.md`): one record a row, the table's columns
+/// flat, the per-level counters left to the JSON. Columns are only ever added.
+pub fn write_csv(out: impl std::io::Write, rows: &[BenchRow]) -> Result<(), csv::Error> {
+    let mut w = csv::Writer::from_writer(out);
+    for r in rows {
+        w.serialize(CsvRow {
+            scene: &r.scene,
+            primitives: r.primitives,
+            structure: &r.structure,
+            rays: r.rays,
+            hits: r.hits,
+            build_ms: r.build.median_ms,
+            build_min_ms: r.build.min_ms,
+            build_max_ms: r.build.max_ms,
+            trace_ms: r.trace.median_ms,
+            trace_min_ms: r.trace.min_ms,
+            trace_max_ms: r.trace.max_ms,
+            mrays_per_s: r.mrays_per_s,
+            memory_bytes: r.memory_bytes,
+            bytes_per_primitive: r.bytes_per_primitive,
+            n_c: r.septet.n_c,
+            r_etnc: r.septet.r_etnc,
+            n_adc: r.septet.n_adc,
+            n_aoifc: r.septet.n_aoifc,
+            r_fvwv: r.septet.r_fvwv,
+            n_rprt: r.septet.n_rprt,
+            n_tac: r.septet.n_tac,
+            n_at: r.septet.n_at,
+            t_tt_over_t_tr: r.triplet.t_tt_over_t_tr,
+            pit_per_ray: r.per_ray.pit,
+            pi_per_ray: r.per_ray.pi,
+            bbi_per_ray: r.per_ray.bbi,
+            vt_per_ray: r.per_ray.vt,
+            differences: r.differences,
+            compared: r.compared,
+        })?;
+    }
+    w.flush()?;
+    Ok(())
 }

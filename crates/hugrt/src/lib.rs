@@ -8,14 +8,18 @@
 //! * [`stats`]: scene statistics (SCG97 Fig. 4).
 //! * [`reproduce`]: the papers' experiments regenerated, published beside measured.
 //! * [`batch`]: batch ray queries in the `hugrt trace` file format.
+//! * [`Error`]: what the whole jobs (a rendering, statistics, a written scene) fail with.
 //! * [`mod@bench`]: structures measured on the same work: times, Havran's septet and triplet,
 //!   counters, and the same-answers check.
 
 pub mod accel;
 pub mod batch;
 pub mod bench;
+mod error;
 pub mod geometry;
 pub mod render;
 pub mod reproduce;
 pub mod scene;
 pub mod stats;
+
+pub use error::Error;

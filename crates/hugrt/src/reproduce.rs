@@ -55,18 +55,26 @@ pub enum ReproduceError {
     Write(PathBuf, std::io::Error),
 }
 
+/// The targets named, in the order given; `all` stands for every target. An error names the
+/// valid targets for a name that is none of them, before any work.
+pub fn resolve<S: AsRef<str>>(names: &[S]) -> Result<Vec<&'static Target>, ReproduceError> {
+    if names.iter().any(|n| n.as_ref() == "all") {
+        return Ok(TARGETS.iter().collect());
+    }
+    names.iter().map(|n| target(n.as_ref())).collect()
+}
+
+fn target(name: &str) -> Result<&'static Target, ReproduceError> {
+    TARGETS.iter().find(|t| t.name == name).ok_or_else(|| {
+        let mut valid: Vec<&str> = TARGETS.iter().map(|t| t.name).collect();
+        valid.push("all");
+        ReproduceError::UnknownTarget(name.to_string(), valid.join(", "))
+    })
+}
+
 /// Runs the target `name` and writes its files to `dir/name/`; returns that folder.
 pub fn run(name: &str, options: &Options, dir: &Path) -> Result<PathBuf, ReproduceError> {
-    let target = TARGETS.iter().find(|t| t.name == name).ok_or_else(|| {
-        ReproduceError::UnknownTarget(
-            name.to_string(),
-            TARGETS
-                .iter()
-                .map(|t| t.name)
-                .collect::<Vec<_>>()
-                .join(", "),
-        )
-    })?;
+    let target = target(name)?;
     let out = dir.join(target.name);
     std::fs::create_dir_all(&out).map_err(|e| ReproduceError::Write(out.clone(), e))?;
     for (file, text) in (target.run)(options).files {

@@ -54,3 +54,62 @@ pub fn scene_stats<P: Primitives>(prims: &P) -> SceneStats {
         histogram,
     }
 }
+
+/// What `hugrt stats` reports: the scene's statistics and the structure's, with the build
+/// time. Its JSON (`docs/output-formats.md`) holds `scene`, `accel`, `scene_stats`,
+/// `build_seconds`, `scene_memory_bytes`, `structure` (the structure's named figures as one
+/// object), `levels` and `depths`; fields are only ever added.
+#[derive(Clone, Debug)]
+pub struct StatsReport {
+    pub scene: String,
+    pub accel: String,
+    pub scene_stats: SceneStats,
+    pub scene_memory_bytes: usize,
+    pub build_seconds: f64,
+    pub structure: crate::accel::StructureStats,
+}
+
+impl StatsReport {
+    /// Opens the scene `name` ([`crate::scene::Scene::open`]), builds `spec` over it and
+    /// gathers both statistics.
+    pub fn measure(name: &str, spec: &str) -> Result<StatsReport, crate::Error> {
+        crate::accel::AnyAccel::check(spec).map_err(|e| crate::Error::spec(spec, e))?;
+        let scene = crate::scene::Scene::open(name)?;
+        let scene_stats = scene_stats(&scene);
+        let t = std::time::Instant::now();
+        let accel =
+            crate::accel::AnyAccel::build(&scene, spec).map_err(|e| crate::Error::spec(spec, e))?;
+        let build_seconds = t.elapsed().as_secs_f64();
+        Ok(StatsReport {
+            scene: name.to_string(),
+            accel: spec.to_string(),
+            scene_stats,
+            scene_memory_bytes: scene.memory_bytes(),
+            build_seconds,
+            structure: accel.stats(),
+        })
+    }
+}
+
+impl Serialize for StatsReport {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeStruct;
+        /// The structure's named figures as one object, in their order.
+        struct Entries<'a>(&'a [(String, f64)]);
+        impl Serialize for Entries<'_> {
+            fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+                s.collect_map(self.0.iter().map(|(k, v)| (k, v)))
+            }
+        }
+        let mut r = s.serialize_struct("StatsReport", 8)?;
+        r.serialize_field("scene", &self.scene)?;
+        r.serialize_field("accel", &self.accel)?;
+        r.serialize_field("scene_stats", &self.scene_stats)?;
+        r.serialize_field("build_seconds", &self.build_seconds)?;
+        r.serialize_field("scene_memory_bytes", &self.scene_memory_bytes)?;
+        r.serialize_field("structure", &Entries(&self.structure.entries))?;
+        r.serialize_field("levels", &self.structure.levels)?;
+        r.serialize_field("depths", &self.structure.depths)?;
+        r.end()
+    }
+}

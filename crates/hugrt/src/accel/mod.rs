@@ -375,6 +375,33 @@ macro_rules! structures {
                 })
             }
 
+            /// Checks a spec before any work: builds it over no primitives, which parses and
+            /// checks every key and value at no cost.
+            pub fn check(spec: &str) -> Result<(), SpecError> {
+                Self::build(&crate::scene::Scene::from_triangles(Vec::new()), spec).map(drop)
+            }
+
+            /// The keys of every structure's spec, or of the one named: `(name, keys)` in
+            /// [`STRUCTURES`]' order; an error naming the valid structures for an unknown
+            /// name.
+            pub fn describe(
+                name: Option<&str>,
+            ) -> Result<Vec<(&'static str, Vec<KeyHelp>)>, SpecError> {
+                let names: Vec<&'static str> = match name {
+                    Some(n) => vec![*STRUCTURES.iter().find(|s| **s == n).ok_or_else(|| {
+                        SpecError::UnknownStructure {
+                            name: n.to_string(),
+                            valid: STRUCTURES.join(", "),
+                        }
+                    })?],
+                    None => STRUCTURES.to_vec(),
+                };
+                Ok(names
+                    .into_iter()
+                    .map(|n| (n, Self::keys(n).expect("every listed structure has keys")))
+                    .collect())
+            }
+
             /// The keys of the named structure's spec: what each accepts, its default, its
             /// help ([`Settings::describe`]).
             pub fn keys(name: &str) -> Option<Vec<KeyHelp>> {

@@ -16,8 +16,12 @@
 //! The image does not depend on the number of threads: every corner is computed on its own
 //! and counts are sums of integers.
 
+mod job;
+mod output;
 mod soft;
 
+pub use job::{DEFAULT_SCENE, MAX_SIDE, RenderJob, check_image};
+pub use output::{ImageFormat, save_image};
 pub use soft::{DEFAULT_LIGHT_RADIUS, SoftShadows};
 
 use crate::accel::{AnyAccel, Counters, Hit, NoCounters, RayCounters};
@@ -61,6 +65,9 @@ pub struct RenderReport {
     /// The papers' counters per level, with `--counters`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub counters_per_level: Option<Vec<crate::accel::LevelCounts>>,
+    /// The structure's name (`accel` is its spec).
+    pub structure: &'static str,
+    pub lights: usize,
 }
 
 /// Ray counts of a rendering, as the SPD notes tabulate them.

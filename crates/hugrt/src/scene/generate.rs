@@ -81,6 +81,26 @@ pub fn generate(kind: &str, size: u32, seed: u64) -> Option<Scene> {
     Some(b.scene)
 }
 
+/// The size [`generate`] gives `kind` for `size`: the kind's default for 0; an error for an
+/// unknown kind or a size past [`max_size`].
+pub fn resolve_size(kind: &str, size: u32) -> Result<u32, crate::Error> {
+    if !KINDS.iter().any(|k| k.0 == kind) {
+        let kinds: Vec<&str> = KINDS.iter().map(|k| k.0).collect();
+        return Err(crate::Error::Invalid(format!(
+            "unknown kind '{kind}' (there are: {})",
+            kinds.join(", ")
+        )));
+    }
+    let max = max_size(kind);
+    match size {
+        0 => Ok(default_size(kind)),
+        s if s > max => Err(crate::Error::Invalid(format!(
+            "size {s} for {kind}: at most {max}"
+        ))),
+        s => Ok(s),
+    }
+}
+
 /// The size a kind has when none is asked for.
 pub fn default_size(kind: &str) -> u32 {
     KINDS.iter().find(|(k, _, _)| *k == kind).map_or(1, |k| k.2)

@@ -77,6 +77,58 @@ impl Camera {
     }
 }
 
+/// Where a camera stands, overriding a scene's (a mesh's default frames its box from
+/// outside): a field left `None` keeps the scene's.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct View {
+    pub eye: Option<Vec3>,
+    pub look_at: Option<Vec3>,
+    pub up: Option<Vec3>,
+    /// Vertical field of view in degrees, strictly between 0 and 180.
+    pub fov: Option<f32>,
+}
+
+/// A view no camera can take.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum ViewError {
+    #[error("field of view {0}: must be between 0 and 180 degrees")]
+    Fov(f32),
+    #[error("the eye and the point looked at are the same point")]
+    SamePoint,
+    #[error("the up direction {0} is parallel to the view direction")]
+    UpParallel(Vec3),
+}
+
+impl Camera {
+    /// This camera with `view`'s fields in place of its own; an error for a view that cannot
+    /// be (the frame of [`crate::render`] would be NaN).
+    pub fn viewed(self, view: &View) -> Result<Camera, ViewError> {
+        if *view == View::default() {
+            return Ok(self);
+        }
+        let camera = Camera {
+            from: view.eye.unwrap_or(self.from),
+            at: view.look_at.unwrap_or(self.at),
+            up: view.up.unwrap_or(self.up),
+            fov_deg: view.fov.unwrap_or(self.fov_deg),
+            ..self
+        };
+        let forward = camera.at - camera.from;
+        if !(camera.fov_deg > 0.0 && camera.fov_deg < 180.0) {
+            return Err(ViewError::Fov(camera.fov_deg));
+        }
+        if forward.length_squared() == 0.0 {
+            return Err(ViewError::SamePoint);
+        }
+        if forward.cross(camera.up).length_squared()
+            <= 1e-12 * forward.length_squared() * camera.up.length_squared()
+        {
+            return Err(ViewError::UpParallel(camera.up));
+        }
+        Ok(camera)
+    }
+}
+
 /// Largest image side accepted from a file (a resolution line is untrusted input).
 pub const MAX_RESOLUTION: u32 = 16384;
 

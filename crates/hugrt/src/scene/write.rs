@@ -2,8 +2,48 @@
 //! triangles only.
 
 use super::Scene;
+use crate::Error;
 use crate::geometry::{Cone, Shape, Sphere, Vec3};
 use std::io::{self, Write};
+use std::path::Path;
+
+/// The scene formats hugrt writes, chosen by a file name's extension (as [`Scene::load`]
+/// reads by content).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SceneFormat {
+    /// Everything a scene holds ([`write_nff`]).
+    Nff,
+    /// Triangles only, binary ([`write_ply`]).
+    Ply,
+}
+
+impl SceneFormat {
+    /// The format of `path` by its extension (`.nff` or `.ply`, any case); an error naming
+    /// both for any other.
+    pub fn for_path(path: &Path) -> Result<SceneFormat, Error> {
+        match path.extension().map(|e| e.to_ascii_lowercase()) {
+            Some(e) if e == "nff" => Ok(SceneFormat::Nff),
+            Some(e) if e == "ply" => Ok(SceneFormat::Ply),
+            _ => Err(Error::Format {
+                path: path.to_path_buf(),
+                reason: "the output must end in .nff or .ply".into(),
+            }),
+        }
+    }
+}
+
+/// Writes `scene` to `path` in the format its name says ([`SceneFormat::for_path`]).
+pub fn save(scene: &Scene, path: &Path) -> Result<(), Error> {
+    let format = SceneFormat::for_path(path)?;
+    let file = std::fs::File::create(path).map_err(|e| Error::write(path, e))?;
+    let mut w = io::BufWriter::new(file);
+    match format {
+        SceneFormat::Nff => write_nff(scene, &mut w),
+        SceneFormat::Ply => write_ply(scene, &mut w),
+    }
+    .and_then(|()| w.flush())
+    .map_err(|e| Error::write(path, e))
+}
 
 /// Writes `scene` as NFF: the view, background, lights (with their colours), then each
 /// material followed by its primitives. Numbers are written in the shortest form that reads

@@ -1,0 +1,152 @@
+//! The library's whole jobs, which the CLI only calls: a rendering, statistics, a timed
+//! batch, output formats chosen by file name, and their checks before any work.
+
+use hugrt::accel::AnyAccel;
+use hugrt::batch::{self, HitFormat, Query};
+use hugrt::render::{ImageFormat, RenderJob, RenderSettings, render};
+use hugrt::scene::write::SceneFormat;
+use hugrt::scene::{Scene, View, ViewError, generate};
+use hugrt::stats::StatsReport;
+use std::path::Path;
+
+#[test]
+fn a_render_job_is_the_rendering_of_its_parts() {
+    let job = RenderJob {
+        width: Some(40),
+        height: Some(30),
+        ..RenderJob::new("builtin:kitchen:1", "grid")
+    };
+    let (out, report) = job.run(&|_, _| {}).unwrap();
+    let scene = Scene::open("builtin:kitchen:1").unwrap();
+    let accel = AnyAccel::build(&scene, "grid").unwrap();
+    let settings = RenderSettings {
+        width: 40,
+        height: 30,
+        depth: 4,
+        counters: false,
+    };
+    let direct = render(&scene, &accel, &settings, &|_| {});
+    assert_eq!(out.image, direct.image);
+    assert_eq!(report.counts, direct.counts);
+    assert_eq!(
+        (report.primitives, report.lights, report.structure),
+        (scene.shapes.len(), scene.lights.len(), "grid")
+    );
+}
+
+#[test]
+fn a_render_job_checks_before_work() {
+    let bad = [
+        RenderJob::new("builtin:kitchen:1", "grid:dens=2"),
+        RenderJob {
+            width: Some(0),
+            ..RenderJob::new("builtin:kitchen:1", "grid")
+        },
+        RenderJob {
+            soft_shadows: Some(f32::NAN),
+            ..RenderJob::new("builtin:kitchen:1", "grid")
+        },
+        RenderJob {
+            depth: 1000,
+            ..RenderJob::new("builtin:kitchen:1", "grid")
+        },
+    ];
+    for job in bad {
+        assert!(job.check().is_err(), "{job:?}");
+    }
+    let empty = RenderJob::new("builtin:room:1", "grid");
+    assert!(empty.check().is_ok());
+}
+
+#[test]
+fn views_that_cannot_be_are_named() {
+    let c = Scene::open("builtin:kitchen:1").unwrap().camera;
+    assert_eq!(c.viewed(&View::default()), Ok(c));
+    let fov = View {
+        fov: Some(180.0),
+        ..View::default()
+    };
+    assert_eq!(c.viewed(&fov), Err(ViewError::Fov(180.0)));
+    let same = View {
+        eye: Some(c.at),
+        ..View::default()
+    };
+    assert_eq!(c.viewed(&same), Err(ViewError::SamePoint));
+    let up = View {
+        up: Some(c.at - c.from),
+        ..View::default()
+    };
+    assert!(matches!(c.viewed(&up), Err(ViewError::UpParallel(_))));
+}
+
+#[test]
+fn output_formats_follow_the_file_name() {
+    assert_eq!(
+        ImageFormat::for_path(Path::new("a.PNG")).unwrap(),
+        ImageFormat::Png
+    );
+    assert!(ImageFormat::for_path(Path::new("a.jpg")).is_err());
+    assert!(ImageFormat::for_path(&std::env::temp_dir()).is_err());
+    assert_eq!(
+        SceneFormat::for_path(Path::new("a.nff")).unwrap(),
+        SceneFormat::Nff
+    );
+    assert_eq!(
+        SceneFormat::for_path(Path::new("a.Ply")).unwrap(),
+        SceneFormat::Ply
+    );
+    assert!(SceneFormat::for_path(Path::new("a.obj")).is_err());
+    assert_eq!(generate::resolve_size("kitchen", 0).unwrap(), 2);
+    assert_eq!(generate::resolve_size("kitchen", 3).unwrap(), 3);
+    assert!(generate::resolve_size("kitchen", 65).is_err());
+    assert!(generate::resolve_size("octopus", 1).is_err());
+}
+
+#[test]
+fn a_timed_batch_writes_what_the_untimed_one_finds() {
+    let scene = Scene::open("builtin:kitchen:1").unwrap();
+    let accel = AnyAccel::build(&scene, "bvh").unwrap();
+    let rays = batch::incoherent_rays(&Scene::bounds(&scene), 500, 3);
+    let closest = batch::trace(&scene, &accel, &rays, false);
+    let t = batch::trace_timed(&scene, &accel, &rays, Query::Closest, HitFormat::Basic, 2).unwrap();
+    assert_eq!(t.bytes, batch::encode_hits(&closest));
+    assert_eq!(t.hits, closest.iter().flatten().count());
+    let all = batch::trace_timed(&scene, &accel, &rays, Query::All, HitFormat::Basic, 1).unwrap();
+    assert_eq!(
+        all.bytes,
+        batch::encode_all_hits(&batch::trace_all(&scene, &accel, &rays))
+    );
+    assert!(batch::trace_timed(&scene, &accel, &rays, Query::Any, HitFormat::Full, 1).is_err());
+}
+
+#[test]
+fn statistics_and_names_come_from_the_library() {
+    let r = StatsReport::measure("builtin:kitchen:1", "hug").unwrap();
+    let j = serde_json::to_value(&r).unwrap();
+    for key in [
+        "scene",
+        "accel",
+        "scene_stats",
+        "build_seconds",
+        "scene_memory_bytes",
+        "structure",
+        "levels",
+        "depths",
+    ] {
+        assert!(j.get(key).is_some(), "{key}");
+    }
+    assert!(j["structure"]["memory_bytes"].as_f64().unwrap() > 0.0);
+    assert!(StatsReport::measure("builtin:kitchen:1", "hug:nope=1").is_err());
+    assert_eq!(
+        AnyAccel::describe(None).unwrap().len(),
+        hugrt::accel::STRUCTURES.len()
+    );
+    assert!(AnyAccel::describe(Some("octopus")).is_err());
+    let names: Vec<&str> = hugrt::reproduce::resolve(&["all"])
+        .unwrap()
+        .iter()
+        .map(|t| t.name)
+        .collect();
+    assert_eq!(names.len(), hugrt::reproduce::TARGETS.len());
+    assert!(hugrt::reproduce::resolve(&["octopus"]).is_err());
+}
