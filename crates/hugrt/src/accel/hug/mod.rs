@@ -51,44 +51,10 @@ use super::{Accel, CellCensus, Counters, HitSink, Preset, Primitives, SpecError,
 use crate::geometry::Ray;
 
 /// The defaults of `hug` with no keys, chosen by measurement: every variant rendered (SPD
-/// procedure, 2 threads, best of 3 at 512² or of 5 at 1024² where two were within noise)
-/// over the 11 SPD scenes, the 5 yardstick meshes and the 7 generated scenes, against the
-/// uniform grid at densities 1, 2, 4, 8, 16 and 20 (`docs/measurements.md` has every column).
-/// Render time over the best grid density of each scene:
-///
-/// | scene | best grid (D) | hug | EG95 | SCG97 |
-/// | --- | --- | --- | --- | --- |
-/// | balls | 0.544 s (20) | 0.45 | 2.86 | 0.48 |
-/// | gears | 3.571 s (8)* | 0.96 | 1.31 | 1.28 |
-/// | mount | 0.825 s (2)* | 1.05 | 1.00 | 1.00 |
-/// | rings | 1.985 s (20)* | 1.06 | 1.49 | 1.23 |
-/// | teapot | 0.698 s (4)* | 1.00 | 1.04 | 1.04 |
-/// | tetra | 0.136 s (8)* | 1.00 (the same grid) | 1.03 | 1.01 |
-/// | tree | 2.578 s (20) | 0.08 | 2.98 | 0.09 |
-/// | lattice | 1.054 s (20)* | 1.07 | 1.70 | 1.23 |
-/// | shells | 1.365 s (4) | 0.98 | 1.02 | 1.09 |
-/// | sombrero | 0.141 s (8)* | 0.97 | 1.39 | 1.00 |
-/// | stanford-bunny | 0.137 s (4)* | 1.06 | 1.15 | 1.33 |
-/// | nefertiti | 0.145 s (16)* | 0.97 | 1.47 | 1.22 |
-/// | spd-tetra-big | 0.159 s (4)* | 1.08 | 1.32 | 1.08 |
-/// | spd-teapot-big | 0.145 s (4)* | 1.00 | 1.09 | 1.22 |
-/// | spd-mount-big | 0.268 s (20)* | 0.96 | 1.76 | 1.13 |
-/// | kitchen | 0.408 s (2) | 0.72 | 1.06 | 0.79 |
-/// | building | 0.040 s (4) | 0.75 | 0.98 | 0.87 |
-/// | city | 0.664 s (16)* | 1.08 | 1.53 | 1.46 |
-/// | garden | 0.171 s (8) | 0.71 | 1.04 | 0.84 |
-/// | sphereflake | 0.648 s (20) | 0.80 | 2.64 | 0.77 |
-/// | stadium | 34 s (20) | 0.012 | 0.40 | 1.14 |
-/// | room | 0.316 s (4) | 0.44 | 0.86 | 0.39 |
-///
-/// (* grid and `hug` at 1024², best of 5, where the 512² figures were within noise of each
-/// other; the EG95 and SCG97 columns are from the 512² sweep. They are not the papers'
-/// algorithms, which [`EG95`] and [`SCG97`] now are, but these approximations with hugrt's
-/// give-back, cubical cells and shifted planes: EG95 =
-/// `filter=levels,cluster=cluster3d,alpha=0.01,world=2n,density=1,prune=false`, SCG97 =
-/// `filter=two,cluster=cluster3d,alpha=0.01,world=sqrt2,density=1,prune=false`. The stadium's
-/// grid figure is from an earlier 512² sweep, the grid taking 34 to 79 s at every density.) The defaults are
-/// never more than 8% behind the best density, which differs from scene to scene (2 to 20), and
+/// procedure) over the 11 SPD scenes, the 5 yardstick meshes and the 7 generated scenes,
+/// against the uniform grid at densities 1 to 20 (`docs/measurements.md`, "The HUG's
+/// defaults", has the table and how to regenerate it). The defaults are never more than 8%
+/// behind the best grid density, which differs from scene to scene (2 to 20), and
 /// are 1.4 to 80 times faster where objects cluster. One key at a time, over all scenes
 /// (worst ratio to the best grid; geometric mean at 512²):
 ///
