@@ -4,6 +4,7 @@
 
 use crate::load_scene;
 use anyhow::{Context, Result, bail};
+use hugrt::accel::COUNTERS;
 use hugrt::bench::{BenchRow, Candidate, DEFAULT_SCENES, Workload, bench_scene, write_csv};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::path::{Path, PathBuf};
@@ -107,21 +108,37 @@ const SEPTET_LEGEND: &str =
 share of them holding no object; N_ADC: references per object less one; N_AOIFC: references
 per cell holding any; R_FVWV: volume of those cells over the scene's; N_RPRT: ray-object tests
 per hit; N_AT: cells and nodes visited per ray; T_TT/T_TR: the share of the render time spent
-in the structure; #pit, #pi, #bbi, #vt: ray-object tests, hits, ray-box tests and cells visited
-per ray (SCG97 3).";
+in the structure; then the counters per ray (SCG97 3):";
+
+/// Counters per ray, two decimals (three below 1), joined by `sep`.
+fn per_ray(c: &hugrt::bench::PerRay, sep: &str) -> String {
+    let v: Vec<String> = c
+        .iter()
+        .map(|(_, v)| {
+            if *v < 1.0 {
+                format!("{v:.3}")
+            } else {
+                format!("{v:.2}")
+            }
+        })
+        .collect();
+    v.join(sep)
+}
 
 fn print_table(rows: &[BenchRow]) -> Result<()> {
+    let names: Vec<&str> = COUNTERS.iter().map(|c| c.column).collect();
+    let names = names.join(" ");
     say!(
-        "| scene | prims | structure | build ms (min–max) | trace ms (min–max) | Mrays/s | B/prim | N_C | R_ETNC | N_ADC | N_AOIFC | R_FVWV | N_RPRT | N_AT | T_TT/T_TR | #pit #pi #bbi #vt per ray | differ |"
+        "| scene | prims | structure | build ms (min–max) | trace ms (min–max) | Mrays/s | B/prim | N_C | R_ETNC | N_ADC | N_AOIFC | R_FVWV | N_RPRT | N_AT | T_TT/T_TR | {names} per ray | differ |"
     );
     say!(
         "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"
     );
     for r in rows {
         let s = &r.septet;
-        let c = &r.per_ray;
+        let c = per_ray(&r.per_ray, " ");
         say!(
-            "| {} | {} | {} | {:.1} ({:.1}–{:.1}) | {:.1} ({:.1}–{:.1}) | {:.2} | {:.1} | {} | {:.3} | {:.2} | {:.2} | {:.3} | {:.2} | {:.2} | {} | {:.2} {:.3} {:.2} {:.2} | {} {} |",
+            "| {} | {} | {} | {:.1} ({:.1}–{:.1}) | {:.1} ({:.1}–{:.1}) | {:.2} | {:.1} | {} | {:.3} | {:.2} | {:.2} | {:.3} | {:.2} | {:.2} | {} | {c} | {} {} |",
             r.scene,
             r.primitives,
             r.structure,
@@ -143,31 +160,30 @@ fn print_table(rows: &[BenchRow]) -> Result<()> {
             r.triplet
                 .t_tt_over_t_tr
                 .map_or("—".to_string(), |x| format!("{x:.2}")),
-            c.pit,
-            c.pi,
-            c.bbi,
-            c.vt,
             r.differences,
             r.compared,
         );
     }
     say!();
     say!("{SEPTET_LEGEND}");
+    let legend: Vec<String> = COUNTERS
+        .iter()
+        .map(|c| format!("{}: {}", c.column, c.help))
+        .collect();
+    say!("{}.", legend.join("; "));
     let deep: Vec<&BenchRow> = rows.iter().filter(|r| r.per_ray_levels.len() > 1).collect();
     if !deep.is_empty() {
         say!();
-        say!("| scene | structure | level | #pit | #pi | #bbi | #vt |");
-        say!("| --- | --- | --- | --- | --- | --- | --- |");
+        let columns: Vec<&str> = COUNTERS.iter().map(|c| c.column).collect();
+        say!("| scene | structure | level | {} |", columns.join(" | "));
+        say!("| --- | --- | --- |{}", " --- |".repeat(COUNTERS.len()));
         for r in deep {
             for (l, c) in r.per_ray_levels.iter().enumerate() {
                 say!(
-                    "| {} | {} | {l} | {:.2} | {:.3} | {:.2} | {:.2} |",
+                    "| {} | {} | {l} | {} |",
                     r.scene,
                     r.structure,
-                    c.pit,
-                    c.pi,
-                    c.bbi,
-                    c.vt
+                    per_ray(c, " | ")
                 );
             }
         }

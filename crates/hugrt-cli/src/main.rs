@@ -16,7 +16,7 @@ mod report;
 use anyhow::{Context, Result, anyhow, bail};
 use clap::builder::TypedValueParser as _;
 use clap::{Parser, Subcommand};
-use hugrt::accel::{AnyAccel, STRUCTURES};
+use hugrt::accel::{AnyAccel, COUNTERS, STRUCTURES};
 use hugrt::batch::{HitFormat, Query};
 use hugrt::bench::Workload;
 use hugrt::render::{DEFAULT_SCENE, ImageFormat, RenderJob, check_image, save_image};
@@ -344,18 +344,20 @@ fn main() {
     }
 }
 
-/// Prints the papers' counters per ray and per hierarchy level.
+/// Prints every counter ([`hugrt::accel::COUNTERS`]) per ray and per hierarchy level.
 fn print_counters(c: &hugrt::accel::RayCounters, rays: u64) -> Result<()> {
-    let per = |x: u64| x as f64 / rays.max(1) as f64;
-    say!("per ray      #pit      #pi     #bbi      #vt");
+    let columns: String = COUNTERS
+        .iter()
+        .map(|k| format!(" {:>8}", k.column))
+        .collect();
+    say!("per ray  {columns}");
     for (level, l) in c.used_levels().iter().enumerate() {
-        say!(
-            "level {level}  {:8.2} {:8.3} {:8.2} {:8.2}",
-            per(l.pit),
-            per(l.pi),
-            per(l.bbi),
-            per(l.vt)
-        );
+        let values: String = l
+            .per_ray(rays)
+            .iter()
+            .map(|(_, v)| format!(" {v:8.2}"))
+            .collect();
+        say!("level {level:<3}{values}");
     }
     Ok(())
 }

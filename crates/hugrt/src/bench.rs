@@ -23,7 +23,9 @@
 //! the structure makes, which is what Havran's `T_TT < T_TR` compares across structures. For
 //! batches of rays all the time is in the structure, and `T_TT/T_TR` is not reported.
 
-use crate::accel::{AnyAccel, CellCensus, Hit, LevelCounts, Primitives, RayCounters, SpecError};
+use crate::accel::{
+    AnyAccel, COUNTERS, CellCensus, Counts, Hit, PIT, Primitives, RayCounters, SpecError, VT,
+};
 use crate::batch::{camera_rays, count, incoherent_rays, trace_into};
 use crate::geometry::Ray;
 use crate::render::{
@@ -143,26 +145,9 @@ pub struct Triplet {
     pub t_tt_over_t_tr: Option<f64>,
 }
 
-/// Counters per ray of one level (or all levels).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
-pub struct PerRay {
-    pub pit: f64,
-    pub pi: f64,
-    pub bbi: f64,
-    pub vt: f64,
-}
-
-impl PerRay {
-    fn of(c: &LevelCounts, rays: u64) -> PerRay {
-        let r = rays.max(1) as f64;
-        PerRay {
-            pit: c.pit as f64 / r,
-            pi: c.pi as f64 / r,
-            bbi: c.bbi as f64 / r,
-            vt: c.vt as f64 / r,
-        }
-    }
-}
+/// Counters per ray of one level (or all levels), a member per counter of
+/// [`crate::accel::COUNTERS`].
+pub type PerRay = Counts<f64>;
 
 /// Everything measured for one structure on one scene.
 #[derive(Clone, Debug, Serialize)]
@@ -351,11 +336,11 @@ pub fn bench_scene(
                 t_tr_ms: trace.median_ms,
                 t_tt_over_t_tr: t_tt,
             },
-            per_ray: PerRay::of(&counters.total(), rays_traced),
+            per_ray: counters.total().per_ray(rays_traced),
             per_ray_levels: counters
                 .used_levels()
                 .iter()
-                .map(|l| PerRay::of(l, rays_traced))
+                .map(|l| l.per_ray(rays_traced))
                 .collect(),
             differences,
             compared: if matches!(workload, Workload::Whitted { .. }) {
@@ -390,9 +375,9 @@ pub fn septet(
         n_adc: ratio(census.object_refs as f64, objects as f64) - 1.0,
         n_aoifc: ratio(census.object_refs as f64, census.full_cells as f64),
         r_fvwv: ratio(census.full_volume, scene_volume),
-        n_rprt: ratio(total.pit as f64, hits as f64),
-        n_tac: total.vt,
-        n_at: ratio(total.vt as f64, rays as f64),
+        n_rprt: ratio(total[PIT] as f64, hits as f64),
+        n_tac: total[VT],
+        n_at: ratio(total[VT] as f64, rays as f64),
     }
 }
 
@@ -417,77 +402,83 @@ pub fn differing_pixels(a: &image::RgbImage, b: &image::RgbImage) -> u64 {
     a.pixels().zip(b.pixels()).filter(|(x, y)| x != y).count() as u64
 }
 
-/// One CSV record per row: the table's columns, flat, with the per-level counters left to
-/// the JSON.
-#[derive(Serialize)]
-struct CsvRow<'a> {
-    scene: &'a str,
-    primitives: usize,
-    structure: &'a str,
-    rays: u64,
-    hits: u64,
-    build_ms: f64,
-    build_min_ms: f64,
-    build_max_ms: f64,
-    trace_ms: f64,
-    trace_min_ms: f64,
-    trace_max_ms: f64,
-    mrays_per_s: f64,
-    memory_bytes: usize,
-    bytes_per_primitive: f64,
-    n_c: usize,
-    r_etnc: f64,
-    n_adc: f64,
-    n_aoifc: f64,
-    r_fvwv: f64,
-    n_rprt: f64,
-    n_tac: u64,
-    n_at: f64,
-    t_tt_over_t_tr: Option<f64>,
-    pit_per_ray: f64,
-    pi_per_ray: f64,
-    bbi_per_ray: f64,
-    vt_per_ray: f64,
-    differences: u64,
-    compared: &'a str,
-}
+/// The CSV's columns before the counters; then `KEY_per_ray` per counter of
+/// [`COUNTERS`], then `differences`, `compared`.
+const CSV_COLUMNS: &[&str] = &[
+    "scene",
+    "primitives",
+    "structure",
+    "rays",
+    "hits",
+    "build_ms",
+    "build_min_ms",
+    "build_max_ms",
+    "trace_ms",
+    "trace_min_ms",
+    "trace_max_ms",
+    "mrays_per_s",
+    "memory_bytes",
+    "bytes_per_primitive",
+    "n_c",
+    "r_etnc",
+    "n_adc",
+    "n_aoifc",
+    "r_fvwv",
+    "n_rprt",
+    "n_tac",
+    "n_at",
+    "t_tt_over_t_tr",
+];
 
 /// Writes `rows` as CSV (`docs/output-formats.md`): one record a row, the table's columns
 /// flat, the per-level counters left to the JSON. Columns are only ever added.
 pub fn write_csv(out: impl std::io::Write, rows: &[BenchRow]) -> Result<(), csv::Error> {
     let mut w = csv::Writer::from_writer(out);
+    let mut header: Vec<String> = CSV_COLUMNS.iter().map(|c| c.to_string()).collect();
+    header.extend(COUNTERS.iter().map(|c| format!("{}_per_ray", c.key)));
+    header.extend(["differences".to_string(), "compared".to_string()]);
+    w.write_record(&header)?;
+    /// A field as serde writes it (so that numbers read as they always have).
+    #[derive(Serialize)]
+    #[serde(untagged)]
+    enum Field<'a> {
+        S(&'a str),
+        U(u64),
+        F(f64),
+        O(Option<f64>),
+    }
+    use Field::{F, O, S, U};
     for r in rows {
-        w.serialize(CsvRow {
-            scene: &r.scene,
-            primitives: r.primitives,
-            structure: &r.structure,
-            rays: r.rays,
-            hits: r.hits,
-            build_ms: r.build.median_ms,
-            build_min_ms: r.build.min_ms,
-            build_max_ms: r.build.max_ms,
-            trace_ms: r.trace.median_ms,
-            trace_min_ms: r.trace.min_ms,
-            trace_max_ms: r.trace.max_ms,
-            mrays_per_s: r.mrays_per_s,
-            memory_bytes: r.memory_bytes,
-            bytes_per_primitive: r.bytes_per_primitive,
-            n_c: r.septet.n_c,
-            r_etnc: r.septet.r_etnc,
-            n_adc: r.septet.n_adc,
-            n_aoifc: r.septet.n_aoifc,
-            r_fvwv: r.septet.r_fvwv,
-            n_rprt: r.septet.n_rprt,
-            n_tac: r.septet.n_tac,
-            n_at: r.septet.n_at,
-            t_tt_over_t_tr: r.triplet.t_tt_over_t_tr,
-            pit_per_ray: r.per_ray.pit,
-            pi_per_ray: r.per_ray.pi,
-            bbi_per_ray: r.per_ray.bbi,
-            vt_per_ray: r.per_ray.vt,
-            differences: r.differences,
-            compared: r.compared,
-        })?;
+        let s = &r.septet;
+        let mut record = vec![
+            S(&r.scene),
+            U(r.primitives as u64),
+            S(&r.structure),
+            U(r.rays),
+            U(r.hits),
+            F(r.build.median_ms),
+            F(r.build.min_ms),
+            F(r.build.max_ms),
+            F(r.trace.median_ms),
+            F(r.trace.min_ms),
+            F(r.trace.max_ms),
+            F(r.mrays_per_s),
+            U(r.memory_bytes as u64),
+            F(r.bytes_per_primitive),
+            U(s.n_c as u64),
+            F(s.r_etnc),
+            F(s.n_adc),
+            F(s.n_aoifc),
+            F(s.r_fvwv),
+            F(s.n_rprt),
+            U(s.n_tac),
+            F(s.n_at),
+            O(r.triplet.t_tt_over_t_tr),
+        ];
+        debug_assert_eq!(record.len(), CSV_COLUMNS.len());
+        record.extend(r.per_ray.iter().map(|(_, v)| F(*v)));
+        record.extend([U(r.differences), S(r.compared)]);
+        w.serialize(&record)?;
     }
     w.flush()?;
     Ok(())

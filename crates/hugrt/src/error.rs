@@ -9,8 +9,10 @@ use std::path::PathBuf;
 pub enum Error {
     #[error(transparent)]
     Scene(#[from] SceneError),
-    #[error("structure {spec}: {source}")]
-    Spec { spec: String, source: SpecError },
+    /// The error is part of the message, not a separate cause (as [`SceneError`]'s): printing
+    /// the chain of causes would repeat it.
+    #[error("structure {spec}: {error}")]
+    Spec { spec: String, error: SpecError },
     #[error(transparent)]
     View(#[from] ViewError),
     /// A scene with nothing to hit, where something was to be rendered.
@@ -20,27 +22,27 @@ pub enum Error {
     #[error("{0}")]
     Invalid(String),
     /// An output file whose name says a format hugrt does not write.
-    #[error("{path}: {reason}")]
+    #[error("{}: {reason}", path.display())]
     Format { path: PathBuf, reason: String },
-    #[error("writing {path}: {source}")]
+    #[error("writing {}: {error}", path.display())]
     Write {
         path: PathBuf,
-        source: std::io::Error,
+        error: std::io::Error,
     },
 }
 
 impl Error {
-    pub(crate) fn spec(spec: &str, source: SpecError) -> Error {
+    pub(crate) fn spec(spec: &str, error: SpecError) -> Error {
         Error::Spec {
             spec: spec.to_string(),
-            source,
+            error,
         }
     }
 
-    pub(crate) fn write(path: &std::path::Path, source: std::io::Error) -> Error {
+    pub(crate) fn write(path: &std::path::Path, error: std::io::Error) -> Error {
         Error::Write {
             path: path.to_path_buf(),
-            source,
+            error,
         }
     }
 }

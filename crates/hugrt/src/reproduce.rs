@@ -349,8 +349,8 @@ fn rtnews_spd(o: &Options) -> Output {
                 build_ms: m.build.median_ms,
                 render_ms: m.trace.median_ms,
                 measured_over_d1: m.trace.median_ms / ours_d1,
-                pit_per_ray: m.per_ray.pit,
-                vt_per_ray: m.per_ray.vt,
+                pit_per_ray: m.per_ray[crate::accel::PIT],
+                vt_per_ray: m.per_ray[crate::accel::VT],
             });
         }
     }

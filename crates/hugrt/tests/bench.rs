@@ -1,7 +1,7 @@
 //! `bench` on tiny scenes: one row per structure with consistent counters, the same answers
 //! from every correct structure, and a wrong structure caught by the same-answers check.
 
-use hugrt::accel::{AnyAccel, PrimitiveKind, Primitives};
+use hugrt::accel::{AnyAccel, PI, PIT, PrimitiveKind, Primitives};
 use hugrt::bench::{BenchRow, Candidate, Workload, bench_scene};
 use hugrt::geometry::{Aabb, PreparedRay, Ray};
 use hugrt::scene::{Scene, procedural::clustered_room};
@@ -60,14 +60,14 @@ fn rows_are_complete_and_counters_consistent() {
             assert!(r.trace.median_ms > 0.0 && r.mrays_per_s > 0.0, "{what}");
             // Counters: successes never exceed tests, per level and in total, and every hit
             // was a successful test.
-            assert!(r.per_ray.pi <= r.per_ray.pit, "{what}");
+            assert!(r.per_ray[PI] <= r.per_ray[PIT], "{what}");
             for l in &r.per_ray_levels {
-                assert!(l.pi <= l.pit, "{what}: a level with more hits than tests");
+                assert!(l[PI] <= l[PIT], "{what}: a level with more hits than tests");
             }
-            let levels_pit: f64 = r.per_ray_levels.iter().map(|l| l.pit).sum();
-            assert!((levels_pit - r.per_ray.pit).abs() <= 1e-9 * r.per_ray.pit.max(1.0));
+            let levels_pit: f64 = r.per_ray_levels.iter().map(|l| l[PIT]).sum();
+            assert!((levels_pit - r.per_ray[PIT]).abs() <= 1e-9 * r.per_ray[PIT].max(1.0));
             assert!(
-                r.per_ray.pi * r.rays as f64 >= r.hits as f64 - 0.5,
+                r.per_ray[PI] * r.rays as f64 >= r.hits as f64 - 0.5,
                 "{what}"
             );
             let s = &r.septet;

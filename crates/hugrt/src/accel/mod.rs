@@ -35,7 +35,10 @@ mod store;
 pub use agrid::{AdaptiveGrid, AdaptiveSettings};
 pub use brute::Brute;
 pub use bvh::{Bvh, BvhSettings};
-pub use counters::{Counters, LevelCounts, MAX_LEVELS, NoCounters, RayCounters};
+pub use counters::{
+    BBI, COUNTER_COUNT, COUNTERS, Counter, CounterInfo, Counters, Counts, LevelCounts, MAX_LEVELS,
+    NoCounters, PI, PIT, RayCounters, VT,
+};
 pub(crate) use frame::Frame;
 pub use grid::{Grid, GridSettings};
 pub use hierarchy::{GridLevelStats, LevelView, Prune, cubical_resolution};

@@ -409,6 +409,9 @@ impl Accel for Hug {
         })
     }
 
+    // Inlined into the batch's loop: left as a call per ray once the batch code around it
+    // changed, +0.9% instructions a ray (cachegrind, the bunny's incoherent rays).
+    #[inline]
     fn query<P: Primitives, C: Counters, S: HitSink>(
         &self,
         prims: &P,
