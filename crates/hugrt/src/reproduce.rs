@@ -319,9 +319,14 @@ fn rtnews_spd(o: &Options) -> Output {
     let mut missing = Vec::new();
     for (k, name) in RTNEWS_SCENES.iter().enumerate() {
         let path = o.spd_dir.join(format!("{name}.nff.gz"));
-        let Ok(scene) = crate::scene::Scene::open(&path.to_string_lossy()) else {
-            missing.push(path.display().to_string());
-            continue;
+        // Why a scene is skipped is part of the report: a file that is absent and a file
+        // that does not parse (with its line) are different troubles.
+        let scene = match crate::scene::Scene::open(&path.to_string_lossy()) {
+            Ok(scene) => scene,
+            Err(e) => {
+                missing.push(e.to_string());
+                continue;
+            }
         };
         let candidates: Vec<Candidate> = RTNEWS_TABLE
             .iter()
@@ -333,9 +338,12 @@ fn rtnews_spd(o: &Options) -> Output {
             depth: 4,
             soft_shadows: None,
         };
-        let Ok(measured) = bench_scene(name, &scene, &candidates, workload, 1, &mut |_| {}) else {
-            missing.push(format!("{name}: a structure failed to build"));
-            continue;
+        let measured = match bench_scene(name, &scene, &candidates, workload, 1, &mut |_| {}) {
+            Ok(m) => m,
+            Err(e) => {
+                missing.push(format!("{name}: {e}"));
+                continue;
+            }
         };
         let (pub_d1, ours_d1) = (RTNEWS_TABLE[0].3[k], measured[0].trace.median_ms);
         for ((label, spec, tb, ttr), m) in RTNEWS_TABLE.iter().zip(&measured) {
@@ -357,9 +365,9 @@ fn rtnews_spd(o: &Options) -> Output {
     if !missing.is_empty() {
         let _ = writeln!(
             report,
-            "Skipped (not found or not built): {}. The SPD scenes ship in the project's shared \
-             folder; `--spd-dir` says where.\n",
-            missing.join(", ")
+            "Skipped: {}. The SPD scenes ship in the project's shared folder; `--spd-dir` says \
+             where.\n",
+            missing.join("; ")
         );
     }
     let _ = writeln!(

@@ -150,3 +150,27 @@ fn statistics_and_names_come_from_the_library() {
     assert_eq!(names.len(), hugrt::reproduce::TARGETS.len());
     assert!(hugrt::reproduce::resolve(&["octopus"]).is_err());
 }
+
+#[test]
+fn a_reproduction_says_why_it_skipped_a_scene() {
+    let dir = std::env::temp_dir().join(format!("hugrt-jobs-{}", std::process::id()));
+    let spd = dir.join("spd");
+    std::fs::create_dir_all(&spd).unwrap();
+    // Not gzipped: the loader reads by content, whatever the name says.
+    let view = "v\nfrom 0 0 oops\nat 0 0 1\nup 0 1 0\nangle 45\nhither 1\nresolution 8 8\n";
+    std::fs::write(spd.join("balls.nff.gz"), view).unwrap();
+    let options = hugrt::reproduce::Options {
+        quick: true,
+        spd_dir: spd.clone(),
+    };
+    let out = hugrt::reproduce::run("rtnews-spd", &options, &dir).unwrap();
+    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    std::fs::remove_dir_all(&dir).unwrap();
+    // The file and the line of the bad number, not "not found".
+    let malformed = format!(
+        "{}:2: from: 'oops' is not a number",
+        spd.join("balls.nff.gz").display()
+    );
+    assert!(report.contains(&malformed), "{report}");
+    assert!(report.contains("gears.nff.gz"), "{report}");
+}

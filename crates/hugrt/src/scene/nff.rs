@@ -252,35 +252,35 @@ fn polygon_count(l: &Lines, args: &[&str]) -> Result<usize, SceneError> {
     Ok(n)
 }
 
+/// The `N` numbers of the view's `key` line, read and checked on that line, so that an
+/// error names it.
+fn view_field<const N: usize>(
+    l: &mut Lines,
+    key: &str,
+    start: usize,
+) -> Result<[f32; N], SceneError> {
+    let w = l.expect_words(&format!("'{key}' line of the view"), start)?;
+    if w[0] != key {
+        return Err(l.err(format!("view: expected '{key}', found '{}'", w[0])));
+    }
+    l.numbers::<N>(&w[1..], key)
+}
+
 fn parse_view(l: &mut Lines, start: usize) -> Result<Camera, SceneError> {
-    let mut field = |key: &str| -> Result<Vec<&str>, SceneError> {
-        let w = l.expect_words(&format!("'{key}' line of the view"), start)?;
-        if w[0] != key {
-            return Err(l.err(format!("view: expected '{key}', found '{}'", w[0])));
-        }
-        Ok(w[1..].to_vec())
-    };
-    let from = field("from")?;
-    let at = field("at")?;
-    let up = field("up")?;
-    let angle = field("angle")?;
-    let hither = field("hither")?;
-    let res = field("resolution")?;
-    let from = l.vec3(&from, "from")?;
-    let at = l.vec3(&at, "at")?;
-    let up = l.vec3(&up, "up")?;
-    let [fov] = l.numbers::<1>(&angle, "angle")?;
-    l.numbers::<1>(&hither, "hither")?;
-    let [w, h] = l.numbers::<2>(&res, "resolution")?;
+    let from = Vec3::from_array(view_field::<3>(l, "from", start)?);
+    let at = Vec3::from_array(view_field::<3>(l, "at", start)?);
+    let up = Vec3::from_array(view_field::<3>(l, "up", start)?);
+    let [fov] = view_field::<1>(l, "angle", start)?;
     if !(fov > 0.0 && fov < 180.0) {
         return Err(l.err(format!("view: angle {fov} outside (0, 180)")));
     }
+    view_field::<1>(l, "hither", start)?;
+    let [w, h] = view_field::<2>(l, "resolution", start)?;
     let size =
         |x: f32| (x >= 1.0 && x <= MAX_RESOLUTION as f32 && x.fract() == 0.0).then_some(x as u32);
     let (Some(width), Some(height)) = (size(w), size(h)) else {
         return Err(l.err(format!(
-            "view: resolution '{}' is not two whole numbers in 1..={MAX_RESOLUTION}",
-            res.join(" ")
+            "view: resolution '{w} {h}' is not two whole numbers in 1..={MAX_RESOLUTION}"
         )));
     };
     if from == at || (at - from).cross(up) == Vec3::ZERO {
