@@ -65,7 +65,8 @@ enum Command {
     /// Regenerate experiments of the papers: each target writes DIR/TARGET/ with a report
     /// (published beside measured, and a verdict), its data as CSV and JSON.
     ///
-    /// Targets: scg97-scenes (SCG97 Fig. 4, the test scenes' statistics), rtnews-spd (RTNews'
+    /// Targets: eg95-kitchens (EG95 Figs. 11-13, one kitchen and many kitchens, with SVG
+    /// plots), scg97-scenes (SCG97 Fig. 4, the test scenes' statistics), rtnews-spd (RTNews'
     /// table of grids on the SPD scenes). `all` runs every target.
     Reproduce(ReproduceArgs),
     /// List the structures and the keys of their specs: what each key accepts, its default and

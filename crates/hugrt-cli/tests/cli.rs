@@ -572,7 +572,7 @@ fn reproduce_writes_a_report_and_its_data() {
     let o = hugrt(&["reproduce", "eg96-kitchens", "-o", out]);
     assert_eq!(o.status.code(), Some(1));
     assert!(
-        stderr(&o).contains("targets: scg97-scenes"),
+        stderr(&o).contains("targets: eg95-kitchens, scg97-scenes"),
         "{}",
         stderr(&o)
     );

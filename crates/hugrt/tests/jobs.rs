@@ -174,3 +174,48 @@ fn a_reproduction_says_why_it_skipped_a_scene() {
     assert!(report.contains(&malformed), "{report}");
     assert!(report.contains("gears.nff.gz"), "{report}");
 }
+
+#[test]
+fn eg95_kitchens_quick_writes_consistent_data_and_plots() {
+    let dir = std::env::temp_dir().join(format!("hugrt-eg95-{}", std::process::id()));
+    let options = hugrt::reproduce::Options {
+        quick: true,
+        spd_dir: dir.join("none"),
+    };
+    let out = hugrt::reproduce::run("eg95-kitchens", &options, &dir).unwrap();
+    let read = |f: &str| std::fs::read_to_string(out.join(f)).unwrap();
+    let (report, csv) = (read("report.md"), read("rows.csv"));
+    let json: serde_json::Value = serde_json::from_str(&read("data.json")).unwrap();
+    let rows: Vec<&str> = csv.lines().skip(1).collect();
+    assert_eq!(rows.len(), json["rows"].as_array().unwrap().len());
+    // Eight structures on each of the quick run's two scenes.
+    assert_eq!(rows.len(), 16, "{csv}");
+    for set in ["one kitchen", "many kitchens"] {
+        let n = rows.iter().filter(|r| r.starts_with(set)).count();
+        let file = if set == "one kitchen" {
+            "fig11a-time-one-kitchen.svg"
+        } else {
+            "fig11b-time-many-kitchens.svg"
+        };
+        // A point per row of the set, and nothing else drawn as a circle.
+        assert_eq!(read(file).matches("<circle").count(), n, "{file}");
+    }
+    for r in json["rows"].as_array().unwrap() {
+        let nu1 = r["voxels"].as_f64().unwrap() / r["polygons"].as_f64().unwrap();
+        assert!((r["nu1"].as_f64().unwrap() - nu1).abs() < 1e-9);
+        assert!(r["memory_mb"].as_f64().unwrap() > 0.0);
+    }
+    // Five statements, each with a computed verdict.
+    let verdicts = report.split("## Verdicts").nth(1).unwrap();
+    let judged = verdicts
+        .lines()
+        .filter(|l| {
+            l.starts_with("- ")
+                && ["holds", "is a tie here", "does not hold"]
+                    .iter()
+                    .any(|w| l.contains(w))
+        })
+        .count();
+    assert_eq!(judged, 5, "{verdicts}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

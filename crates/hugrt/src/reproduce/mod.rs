@@ -5,6 +5,9 @@
 //! The papers' scenes are not available; the generated stand-ins of [`crate::scene::generate`]
 //! take their place (mission map §4), and a report says which stands in for which.
 
+mod eg95;
+mod plot;
+
 use crate::scene::generate::generate;
 use serde::Serialize;
 use std::fmt::Write as _;
@@ -35,6 +38,11 @@ struct Output {
 
 /// Every target, in the papers' order.
 pub const TARGETS: &[Target] = &[
+    Target {
+        name: "eg95-kitchens",
+        what: "EG95 Figs. 11-13: render time, memory and voxels per item against polygons, one kitchen of growing detail and buildings of 2-8 kitchens; octree and recursive grid at MAXP 50/100/150 against the HUG",
+        run: eg95::eg95_kitchens,
+    },
     Target {
         name: "scg97-scenes",
         what: "SCG97 Fig. 4: the test scenes' statistics (objects, min/max, min/diag, %.2) and the distribution of object lengths",
