@@ -67,7 +67,8 @@ enum Command {
     ///
     /// Targets: eg95-kitchens (EG95 Figs. 11-13, one kitchen and many kitchens, with SVG
     /// plots), scg97-scenes (SCG97 Fig. 4, the test scenes' statistics), rtnews-spd (RTNews'
-    /// table of grids on the SPD scenes). `all` runs every target.
+    /// table of grids on the SPD scenes). `all` runs every target. DIR/index.html then links
+    /// every report in DIR and shows its plots.
     Reproduce(ReproduceArgs),
     /// List the structures and the keys of their specs: what each key accepts, its default and
     /// what it does (`--json` for scripts).
@@ -604,11 +605,24 @@ impl ReproduceArgs {
         } = self;
         let targets = hugrt::reproduce::resolve(&targets)?;
         let options = hugrt::reproduce::Options { quick, spd_dir };
+        let bar = ProgressBar::new(targets.len() as u64);
+        bar.set_style(
+            ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} {msg}")?
+                .progress_chars("=> "),
+        );
         pool(threads)?.install(|| {
             for t in targets {
+                bar.set_message(t.name);
                 let dir = hugrt::reproduce::run(t.name, &options, &output)?;
-                say!("{}: {}", t.name, dir.join("report.md").display());
+                bar.inc(1);
+                bar.suspend(|| -> Result<()> {
+                    say!("{}: {}", t.name, dir.join("report.md").display());
+                    Ok(())
+                })?;
             }
+            bar.finish_and_clear();
+            let index = hugrt::reproduce::write_index(&output)?;
+            say!("index: {}", index.display());
             Ok(())
         })
     }

@@ -217,5 +217,17 @@ fn eg95_kitchens_quick_writes_consistent_data_and_plots() {
         })
         .count();
     assert_eq!(judged, 5, "{verdicts}");
+    // The index shows every plot the folder holds, and nothing it does not.
+    let index = std::fs::read_to_string(hugrt::reproduce::write_index(&dir).unwrap()).unwrap();
+    let images: Vec<&str> = index
+        .split("<img src=\"")
+        .skip(1)
+        .map(|s| s.split('"').next().unwrap())
+        .collect();
+    assert_eq!(images.len(), 6, "{index}");
+    for img in images {
+        assert!(dir.join(img).is_file(), "{img}");
+    }
+    assert!(index.contains("eg95-kitchens/report.md") && !index.contains("rtnews-spd"));
     std::fs::remove_dir_all(&dir).unwrap();
 }

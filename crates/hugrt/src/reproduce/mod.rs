@@ -92,6 +92,51 @@ pub fn run(name: &str, options: &Options, dir: &Path) -> Result<PathBuf, Reprodu
     Ok(out)
 }
 
+/// Writes `dir/index.html`: a section per target folder found in `dir` (in [`TARGETS`]' order),
+/// linking its report and data and showing its SVG plots; returns the page's path. Targets
+/// not run are left out, so the page lists what the folder holds.
+pub fn write_index(dir: &Path) -> Result<PathBuf, ReproduceError> {
+    let escape = |t: &str| {
+        t.replace('&', "&amp;")
+            .replace('<', "&lt;")
+            .replace('>', "&gt;")
+    };
+    let mut html = String::from(
+        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>hugrt \
+         reproduce</title>\n<style>body{font-family:sans-serif;max-width:60em;margin:auto}\
+         img{max-width:100%;border:1px solid #ccc}</style>\n</head>\n<body>\n<h1>The papers' \
+         experiments, regenerated</h1>\n",
+    );
+    for t in TARGETS {
+        let folder = dir.join(t.name);
+        let Ok(entries) = std::fs::read_dir(&folder) else {
+            continue;
+        };
+        let mut files: Vec<String> = entries
+            .filter_map(|e| e.ok()?.file_name().into_string().ok())
+            .collect();
+        files.sort();
+        let _ = writeln!(
+            html,
+            "<h2 id=\"{0}\">{0}</h2>\n<p>{1}</p>\n<p>",
+            t.name,
+            escape(t.what)
+        );
+        for f in files.iter().filter(|f| !f.ends_with(".svg")) {
+            let _ = writeln!(html, "<a href=\"{}/{f}\">{f}</a>", t.name);
+        }
+        html.push_str("</p>\n");
+        for f in files.iter().filter(|f| f.ends_with(".svg")) {
+            let _ = writeln!(html, "<p><img src=\"{}/{f}\" alt=\"{f}\"></p>", t.name);
+        }
+    }
+    html.push_str("</body>\n</html>\n");
+    let path = dir.join("index.html");
+    std::fs::create_dir_all(dir).map_err(|e| ReproduceError::Write(dir.to_path_buf(), e))?;
+    std::fs::write(&path, html).map_err(|e| ReproduceError::Write(path.clone(), e))?;
+    Ok(path)
+}
+
 /// A scene's row of SCG97 Fig. 4.
 #[derive(Clone, Debug, Serialize)]
 struct SceneRow {
