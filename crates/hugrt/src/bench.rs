@@ -402,82 +402,59 @@ pub fn differing_pixels(a: &image::RgbImage, b: &image::RgbImage) -> u64 {
     a.pixels().zip(b.pixels()).filter(|(x, y)| x != y).count() as u64
 }
 
-/// The CSV's columns before the counters; then `KEY_per_ray` per counter of
-/// [`COUNTERS`], then `differences`, `compared`.
-const CSV_COLUMNS: &[&str] = &[
-    "scene",
-    "primitives",
-    "structure",
-    "rays",
-    "hits",
-    "build_ms",
-    "build_min_ms",
-    "build_max_ms",
-    "trace_ms",
-    "trace_min_ms",
-    "trace_max_ms",
-    "mrays_per_s",
-    "memory_bytes",
-    "bytes_per_primitive",
-    "n_c",
-    "r_etnc",
-    "n_adc",
-    "n_aoifc",
-    "r_fvwv",
-    "n_rprt",
-    "n_tac",
-    "n_at",
-    "t_tt_over_t_tr",
+/// A CSV field as serde writes it (so that numbers read as they always have).
+#[derive(Serialize)]
+#[serde(untagged)]
+enum Field<'a> {
+    S(&'a str),
+    U(u64),
+    F(f64),
+    O(Option<f64>),
+}
+
+/// A CSV column's value in a row.
+type CsvValue = for<'a> fn(&'a BenchRow) -> Field<'a>;
+
+/// The CSV's columns before the counters, each with its value; then `KEY_per_ray` per
+/// counter of [`COUNTERS`], then `differences`, `compared`.
+const CSV_COLUMNS: &[(&str, CsvValue)] = &[
+    ("scene", |r| Field::S(&r.scene)),
+    ("primitives", |r| Field::U(r.primitives as u64)),
+    ("structure", |r| Field::S(&r.structure)),
+    ("rays", |r| Field::U(r.rays)),
+    ("hits", |r| Field::U(r.hits)),
+    ("build_ms", |r| Field::F(r.build.median_ms)),
+    ("build_min_ms", |r| Field::F(r.build.min_ms)),
+    ("build_max_ms", |r| Field::F(r.build.max_ms)),
+    ("trace_ms", |r| Field::F(r.trace.median_ms)),
+    ("trace_min_ms", |r| Field::F(r.trace.min_ms)),
+    ("trace_max_ms", |r| Field::F(r.trace.max_ms)),
+    ("mrays_per_s", |r| Field::F(r.mrays_per_s)),
+    ("memory_bytes", |r| Field::U(r.memory_bytes as u64)),
+    ("bytes_per_primitive", |r| Field::F(r.bytes_per_primitive)),
+    ("n_c", |r| Field::U(r.septet.n_c as u64)),
+    ("r_etnc", |r| Field::F(r.septet.r_etnc)),
+    ("n_adc", |r| Field::F(r.septet.n_adc)),
+    ("n_aoifc", |r| Field::F(r.septet.n_aoifc)),
+    ("r_fvwv", |r| Field::F(r.septet.r_fvwv)),
+    ("n_rprt", |r| Field::F(r.septet.n_rprt)),
+    ("n_tac", |r| Field::U(r.septet.n_tac)),
+    ("n_at", |r| Field::F(r.septet.n_at)),
+    ("t_tt_over_t_tr", |r| Field::O(r.triplet.t_tt_over_t_tr)),
 ];
 
 /// Writes `rows` as CSV (`docs/output-formats.md`): one record a row, the table's columns
 /// flat, the per-level counters left to the JSON. Columns are only ever added.
 pub fn write_csv(out: impl std::io::Write, rows: &[BenchRow]) -> Result<(), csv::Error> {
     let mut w = csv::Writer::from_writer(out);
-    let mut header: Vec<String> = CSV_COLUMNS.iter().map(|c| c.to_string()).collect();
+    let mut header: Vec<String> = CSV_COLUMNS.iter().map(|c| c.0.to_string()).collect();
     header.extend(COUNTERS.iter().map(|c| format!("{}_per_ray", c.key)));
     header.extend(["differences".to_string(), "compared".to_string()]);
     w.write_record(&header)?;
-    /// A field as serde writes it (so that numbers read as they always have).
-    #[derive(Serialize)]
-    #[serde(untagged)]
-    enum Field<'a> {
-        S(&'a str),
-        U(u64),
-        F(f64),
-        O(Option<f64>),
-    }
-    use Field::{F, O, S, U};
     for r in rows {
-        let s = &r.septet;
-        let mut record = vec![
-            S(&r.scene),
-            U(r.primitives as u64),
-            S(&r.structure),
-            U(r.rays),
-            U(r.hits),
-            F(r.build.median_ms),
-            F(r.build.min_ms),
-            F(r.build.max_ms),
-            F(r.trace.median_ms),
-            F(r.trace.min_ms),
-            F(r.trace.max_ms),
-            F(r.mrays_per_s),
-            U(r.memory_bytes as u64),
-            F(r.bytes_per_primitive),
-            U(s.n_c as u64),
-            F(s.r_etnc),
-            F(s.n_adc),
-            F(s.n_aoifc),
-            F(s.r_fvwv),
-            F(s.n_rprt),
-            U(s.n_tac),
-            F(s.n_at),
-            O(r.triplet.t_tt_over_t_tr),
-        ];
-        debug_assert_eq!(record.len(), CSV_COLUMNS.len());
-        record.extend(r.per_ray.iter().map(|(_, v)| F(*v)));
-        record.extend([U(r.differences), S(r.compared)]);
+        let mut record: Vec<Field> = CSV_COLUMNS.iter().map(|c| (c.1)(r)).collect();
+        record.extend(r.per_ray.iter().map(|(_, v)| Field::F(*v)));
+        record.extend([Field::U(r.differences), Field::S(r.compared)]);
         w.serialize(&record)?;
     }
     w.flush()?;

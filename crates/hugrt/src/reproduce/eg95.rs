@@ -252,21 +252,10 @@ pub(super) fn eg95_kitchens(o: &super::Options) -> Output {
     Output { files }
 }
 
-/// The verdict on one of EG95's statements: the published ratio, the measured one, and
-/// whether the statement holds (the measured ratio on the published side of 1 by more than
-/// [`TIE`]), is a tie, or does not hold.
-fn verdict(claim: &str, published: f64, measured: Option<f64>, why: &str) -> String {
-    verdict_shown(claim, published, &format!("{published:.2}"), measured, why)
-}
-
-/// [`verdict`] with the published ratio written as `shown`.
-fn verdict_shown(
-    claim: &str,
-    published: f64,
-    shown: &str,
-    measured: Option<f64>,
-    why: &str,
-) -> String {
+/// The verdict on one of EG95's statements: the published ratio (written as `shown`), the
+/// measured one, and whether the statement holds (the measured ratio on the published side of
+/// 1 by more than [`TIE`]), is a tie, or does not hold.
+fn verdict(claim: &str, published: f64, shown: &str, measured: Option<f64>, why: &str) -> String {
     let Some(m) = measured else {
         return format!("- {claim}: not measured (a scene or structure is missing).\n");
     };
@@ -280,6 +269,60 @@ fn verdict_shown(
     format!("- {claim} {word}: ratio {shown} published, {m:.2} measured ({why}).\n")
 }
 
+/// One of EG95 §3.2's statements as a ratio of two structures' values at the largest scene
+/// of a set.
+struct Claim {
+    claim: &'static str,
+    published: f64,
+    /// How the published ratio is written, where it is not a number.
+    shown: Option<&'static str>,
+    set: &'static str,
+    /// The structures whose values are divided, numerator first.
+    over: (&'static str, &'static str),
+    value: fn(&Row) -> f64,
+    why: &'static str,
+}
+
+const CLAIMS: &[Claim] = &[
+    Claim {
+        claim: "\"MAXP=50 leads to a rendering time 3.5 times faster than MAXP=150\" (recursive grid, one kitchen)",
+        published: 3.5,
+        shown: None,
+        set: "one kitchen",
+        over: ("recGrid 150", "recGrid 50"),
+        value: |r| r.render_ms,
+        why: "recGrid 150's render time over recGrid 50's",
+    },
+    Claim {
+        claim: "\"MAXP=50 requires 30% more memory than MAXP=150\" (recursive grid, many kitchens)",
+        published: 1.3,
+        shown: None,
+        set: "many kitchens",
+        over: ("recGrid 50", "recGrid 150"),
+        value: |r| r.memory_mb,
+        why: "recGrid 50's bytes over recGrid 150's",
+    },
+    Claim {
+        claim: "\"The HUG uses 40 MBytes and recGrid 50 uses 60 MBytes\" (the largest building)",
+        published: 60.0 / 40.0,
+        shown: None,
+        set: "many kitchens",
+        over: ("recGrid 50", "HUG (EG95)"),
+        value: |r| r.memory_mb,
+        why: "recGrid 50's bytes over the EG95 HUG's",
+    },
+    Claim {
+        claim: "\"The rendering times for octrees are worse than the other structures\" (many kitchens)",
+        // The paper gives no factor: "worse" is a ratio above 1.
+        published: TIE * TIE,
+        shown: Some("above 1 (no factor given)"),
+        set: "many kitchens",
+        over: ("octree 50", "recGrid 50"),
+        value: |r| r.render_ms,
+        why: "octree 50's render time over recGrid 50's; EG95 gives no factor, so only the side of 1 counts",
+    },
+];
+
 fn verdicts(rows: &[Row]) -> String {
     let at_largest = |set: &str, label: &str, f: fn(&Row) -> f64| {
         let largest = rows
@@ -291,51 +334,20 @@ fn verdicts(rows: &[Row]) -> String {
             .find(|r| r.set == set && r.polygons == largest && r.structure == label)
             .map(f)
     };
-    let ratio = |a: Option<f64>, b: Option<f64>| Some(a? / b?);
     let time = |r: &Row| r.render_ms;
-    let mem = |r: &Row| r.memory_mb;
     let mut out = format!(
         "\n## Verdicts\n\nEach of EG95 §3.2's statements as a ratio, published and measured at \
          the largest scene of its set; a measured ratio within ×{TIE} of 1 is a tie.\n\n"
     );
-    out += &verdict(
-        "\"MAXP=50 leads to a rendering time 3.5 times faster than MAXP=150\" (recursive grid, one kitchen)",
-        3.5,
-        ratio(
-            at_largest("one kitchen", "recGrid 150", time),
-            at_largest("one kitchen", "recGrid 50", time),
-        ),
-        "recGrid 150's render time over recGrid 50's",
-    );
-    out += &verdict(
-        "\"MAXP=50 requires 30% more memory than MAXP=150\" (recursive grid, many kitchens)",
-        1.3,
-        ratio(
-            at_largest("many kitchens", "recGrid 50", mem),
-            at_largest("many kitchens", "recGrid 150", mem),
-        ),
-        "recGrid 50's bytes over recGrid 150's",
-    );
-    out += &verdict(
-        "\"The HUG uses 40 MBytes and recGrid 50 uses 60 MBytes\" (the largest building)",
-        60.0 / 40.0,
-        ratio(
-            at_largest("many kitchens", "recGrid 50", mem),
-            at_largest("many kitchens", "HUG (EG95)", mem),
-        ),
-        "recGrid 50's bytes over the EG95 HUG's",
-    );
-    out += &verdict_shown(
-        "\"The rendering times for octrees are worse than the other structures\" (many kitchens)",
-        // The paper gives no factor: "worse" is a ratio above 1.
-        TIE * TIE,
-        "above 1 (no factor given)",
-        ratio(
-            at_largest("many kitchens", "octree 50", time),
-            at_largest("many kitchens", "recGrid 50", time),
-        ),
-        "octree 50's render time over recGrid 50's; EG95 gives no factor, so only the side of 1 counts",
-    );
+    for c in CLAIMS {
+        let measured = at_largest(c.set, c.over.0, c.value)
+            .zip(at_largest(c.set, c.over.1, c.value))
+            .map(|(a, b)| a / b);
+        let shown = c
+            .shown
+            .map_or(format!("{:.2}", c.published), str::to_string);
+        out += &verdict(c.claim, c.published, &shown, measured, c.why);
+    }
     // "Running times between those of recGrid 50 and recGrid 150": scene by scene.
     let scenes: Vec<&str> = {
         let mut s: Vec<&str> = rows.iter().map(|r| r.scene.as_str()).collect();
