@@ -6,7 +6,9 @@
 //! take their place (mission map §4), and a report says which stands in for which.
 
 mod eg95;
+mod havran;
 mod plot;
+mod published;
 
 use crate::scene::generate::generate;
 use serde::Serialize;
@@ -47,6 +49,11 @@ pub const TARGETS: &[Target] = &[
         name: "scg97-scenes",
         what: "SCG97 Fig. 4: the test scenes' statistics (objects, min/max, min/diag, %.2) and the distribution of object lengths",
         run: scg97_scenes,
+    },
+    Target {
+        name: "havran-splits",
+        what: "Havran 1997 Tables 4-6: how often the optimal plane lies outside the median interval; the septet and triplet of the mid-point split against the SAH with empty space cut off",
+        run: havran::havran_splits,
     },
     Target {
         name: "rtnews-spd",

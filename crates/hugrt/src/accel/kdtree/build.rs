@@ -32,6 +32,9 @@ pub(super) struct Builder<'a> {
     pub(super) cut: bool,
     /// References still allowed beyond one per primitive.
     pub(super) budget: AtomicUsize,
+    /// SAH planes made, and those of them outside the median interval (Havran Table 4).
+    pub(super) planes: AtomicUsize,
+    pub(super) outside_median: AtomicUsize,
 }
 
 /// A plane and which side gets the primitives lying in it.
@@ -40,6 +43,10 @@ struct Plane {
     pos: f32,
     planar_left: bool,
     cost: f32,
+    /// The plane's axis' object median: the first key position where the left side holds at
+    /// least as many primitives as the right (Havran §4.2, Fig. 9; primitives the plane cuts
+    /// count on both sides).
+    object_median: f32,
 }
 
 /// Event kinds in sweep order at one position: ends, planars, starts.
@@ -84,6 +91,7 @@ impl Builder<'_> {
                     pos: 0.5 * (node.min[axis] + node.max[axis]),
                     planar_left: true,
                     cost: 0.0,
+                    object_median: f32::NAN,
                 })
             }
         };
@@ -125,6 +133,16 @@ impl Builder<'_> {
             return BuildNode::Leaf(items);
         }
         drop(items);
+        if self.rule == SplitRule::Sah {
+            // Havran Table 4: is the plane outside the interval between the spatial median
+            // and the object median?
+            let spatial = 0.5 * (node.min[p.axis] + node.max[p.axis]);
+            let (lo, hi) = (spatial.min(p.object_median), spatial.max(p.object_median));
+            self.planes.fetch_add(1, Ordering::Relaxed);
+            if p.pos < lo || p.pos > hi {
+                self.outside_median.fetch_add(1, Ordering::Relaxed);
+            }
+        }
         let (mut below, mut above) = (node, node);
         below.max[p.axis] = p.pos;
         above.min[p.axis] = p.pos;
@@ -185,6 +203,7 @@ impl Builder<'_> {
             let cap = e[a1] * e[a2];
             let ring = e[a1] + e[a2];
             let (mut nl, mut nr) = (0usize, n);
+            let mut object_median = f32::NAN;
             let mut k = 0;
             while k < events.len() {
                 let bits = events[k] >> 2;
@@ -200,6 +219,9 @@ impl Builder<'_> {
                     count[START as usize],
                 ];
                 nr -= ends + planars;
+                if object_median.is_nan() && nl + planars >= nr {
+                    object_median = pos;
+                }
                 if pos > node.min[axis] && pos < node.max[axis] {
                     let below = pos - node.min[axis];
                     let above = node.max[axis] - pos;
@@ -229,11 +251,15 @@ impl Builder<'_> {
                                 pos,
                                 planar_left,
                                 cost,
+                                object_median: f32::NAN,
                             });
                         }
                     }
                 }
                 nl += starts + planars;
+            }
+            if let Some(b) = best.as_mut().filter(|b| b.axis == axis) {
+                b.object_median = object_median;
             }
         }
         best
@@ -293,7 +319,103 @@ impl KdTree {
 
 #[cfg(test)]
 mod tests {
-    use super::{from_monotonic, monotonic};
+    use super::{Builder, from_monotonic, monotonic};
+    use crate::accel::kdtree::SplitRule;
+    use crate::geometry::Aabb;
+    use glam::Vec3;
+    use rand::{Rng, SeedableRng};
+    use std::sync::atomic::AtomicUsize;
+
+    /// Havran Table 4's count, against the root's split found by brute force: every key
+    /// position of every axis costed by eq. 3, then compared with the spatial median and the
+    /// object median (the first key position where the left holds at least the right's
+    /// count). Both outcomes must occur, or the test could not fail.
+    #[test]
+    fn planes_outside_the_median_interval_are_counted() {
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(7);
+        let mut seen = [0usize; 2];
+        for _ in 0..300 {
+            let n = rng.random_range(3..12);
+            let boxes: Vec<Aabb> = (0..n)
+                .map(|_| {
+                    let lo = Vec3::new(rng.random(), rng.random(), rng.random());
+                    let size = Vec3::new(rng.random(), rng.random(), rng.random()) * 0.6;
+                    Aabb::new(lo, lo + size)
+                })
+                .collect();
+            let node = boxes.iter().fold(Aabb::EMPTY, |a, b| a.union(b));
+            let builder = Builder {
+                boxes: &boxes,
+                rule: SplitRule::Sah,
+                leaf_size: 1,
+                max_depth: 1,
+                traversal_cost: 0.5,
+                step_cost: 0.1,
+                empty_bonus: 1.0,
+                cut: false,
+                budget: AtomicUsize::new(1 << 20),
+                planes: AtomicUsize::new(0),
+                outside_median: AtomicUsize::new(0),
+            };
+            builder.build((0..n as u32).collect(), node, 0);
+            let area = node.surface_area();
+            let mut planes: Vec<(f32, usize, f32)> = Vec::new();
+            for axis in 0..3 {
+                let mut keys: Vec<f32> = boxes
+                    .iter()
+                    .flat_map(|b| [b.min[axis], b.max[axis]])
+                    .collect();
+                keys.sort_by(f32::total_cmp);
+                for &pos in &keys {
+                    if pos <= node.min[axis] || pos >= node.max[axis] {
+                        continue;
+                    }
+                    let l = boxes.iter().filter(|b| b.min[axis] < pos).count();
+                    let r = boxes.iter().filter(|b| b.max[axis] > pos).count();
+                    let (mut below, mut above) = (node, node);
+                    below.max[axis] = pos;
+                    above.min[axis] = pos;
+                    let cost = 0.5
+                        + (below.surface_area() * l as f32 + above.surface_area() * r as f32)
+                            / area;
+                    planes.push((pos, axis, cost));
+                }
+            }
+            planes.sort_by(|a, b| a.2.total_cmp(&b.2));
+            // Planes of nearly equal cost: which one the sweep keeps is rounding.
+            if planes.len() < 2 || planes[1].2 - planes[0].2 < 1e-4 {
+                continue;
+            }
+            let (pos, axis, cost) = planes[0];
+            let made = builder.planes.load(std::sync::atomic::Ordering::Relaxed);
+            let outside = builder
+                .outside_median
+                .load(std::sync::atomic::Ordering::Relaxed);
+            if cost >= n as f32 || (cost - (n as f32)).abs() < 1e-4 {
+                continue;
+            }
+            assert_eq!(made, 1, "one plane at the root");
+            let object_median = {
+                let mut keys: Vec<f32> = boxes
+                    .iter()
+                    .flat_map(|b| [b.min[axis], b.max[axis]])
+                    .collect();
+                keys.sort_by(f32::total_cmp);
+                *keys
+                    .iter()
+                    .find(|&&p| {
+                        boxes.iter().filter(|b| b.min[axis] < p).count()
+                            >= boxes.iter().filter(|b| b.max[axis] > p).count()
+                    })
+                    .unwrap()
+            };
+            let spatial = 0.5 * (node.min[axis] + node.max[axis]);
+            let expect = pos < spatial.min(object_median) || pos > spatial.max(object_median);
+            assert_eq!(outside, expect as usize, "plane {pos} on axis {axis}");
+            seen[expect as usize] += 1;
+        }
+        assert!(seen[0] > 10 && seen[1] > 10, "both outcomes: {seen:?}");
+    }
 
     #[test]
     fn monotonic_keys_order_floats_and_come_back() {

@@ -154,6 +154,9 @@ struct TreeStats {
     max_depth: usize,
     depth_sum: usize,
     full_volume: f64,
+    /// SAH planes, and those outside the median interval (Havran §4.2, Table 4).
+    sah_planes: usize,
+    planes_outside_median: usize,
 }
 
 /// hugrt's default `bonus`, the usual reward for cutting off empty space (Wald and Havran
@@ -247,6 +250,8 @@ impl Accel for KdTree {
             empty_bonus,
             cut,
             budget: AtomicUsize::new(63 * items.len() + 4096),
+            planes: AtomicUsize::new(0),
+            outside_median: AtomicUsize::new(0),
         };
         let root = builder.build(items, bounds, 0);
         let mut tree = KdTree {
@@ -262,6 +267,8 @@ impl Accel for KdTree {
         };
         let mut logical = Vec::new();
         tree.flatten(root, bounds, 0, &mut logical);
+        tree.stats.sah_planes = builder.planes.into_inner();
+        tree.stats.planes_outside_median = builder.outside_median.into_inner();
         tree.references = tree.refs.len();
         tree.nodes = Nodes::lay_out(&logical, layout, &mut tree.refs).ok_or_else(|| {
             SpecError::Build(format!(
@@ -316,6 +323,8 @@ impl Accel for KdTree {
             t.depth_sum as f64 / t.leaves.max(1) as f64,
         );
         s.push("references", self.references as f64);
+        s.push("sah_planes", t.sah_planes as f64);
+        s.push("planes_outside_median", t.planes_outside_median as f64);
         s.push("references_per_object", self.references as f64 / n);
         s.push_memory(
             self.structure_bytes(),

@@ -1,0 +1,118 @@
+//! The papers' published figures, transcribed into `data/published/` (one CSV file per
+//! table, its source cited in the file's `#` lines) and compiled in, so that a report sets
+//! them beside today's without the papers at hand.
+
+/// One transcribed table: its file name, for the reports to cite, and its rows.
+pub(super) struct Table {
+    pub file: &'static str,
+    headers: Vec<String>,
+    rows: Vec<Vec<String>>,
+}
+
+/// Every transcribed table, by file name.
+const FILES: &[(&str, &str)] = &[
+    (
+        "havran97-table4.csv",
+        include_str!("../../data/published/havran97-table4.csv"),
+    ),
+    (
+        "havran97-tables5-6.csv",
+        include_str!("../../data/published/havran97-tables5-6.csv"),
+    ),
+];
+
+impl Table {
+    /// The table transcribed in `file` (one of [`FILES`]); the files are the repository's
+    /// own and tested to parse, so a failure here is a defect, not an input error.
+    pub fn load(file: &'static str) -> Table {
+        let (_, text) = FILES
+            .iter()
+            .find(|(f, _)| *f == file)
+            .unwrap_or_else(|| panic!("{file}: not a transcribed table"));
+        let mut reader = csv::ReaderBuilder::new()
+            .comment(Some(b'#'))
+            .from_reader(text.as_bytes());
+        let headers = reader
+            .headers()
+            .expect("a header line")
+            .iter()
+            .map(str::to_string)
+            .collect();
+        let rows = reader
+            .records()
+            .map(|r| r.expect("a CSV row").iter().map(str::to_string).collect())
+            .collect();
+        Table {
+            file,
+            headers,
+            rows,
+        }
+    }
+
+    pub fn rows(&self) -> impl Iterator<Item = Row<'_>> {
+        self.rows.iter().map(move |r| Row {
+            table: self,
+            row: r,
+        })
+    }
+
+    /// The rows whose column `column` reads `value`.
+    pub fn rows_where<'a>(
+        &'a self,
+        column: &'a str,
+        value: &'a str,
+    ) -> impl Iterator<Item = Row<'a>> + 'a {
+        self.rows().filter(move |r| r.text(column) == value)
+    }
+}
+
+/// One row of a [`Table`], read by column name.
+#[derive(Clone, Copy)]
+pub(super) struct Row<'a> {
+    table: &'a Table,
+    row: &'a [String],
+}
+
+impl<'a> Row<'a> {
+    pub fn text(&self, column: &str) -> &'a str {
+        let k = self
+            .table
+            .headers
+            .iter()
+            .position(|h| h == column)
+            .unwrap_or_else(|| panic!("{}: no column {column}", self.table.file));
+        &self.row[k]
+    }
+
+    pub fn number(&self, column: &str) -> f64 {
+        let t = self.text(column);
+        t.parse()
+            .unwrap_or_else(|_| panic!("{}: {column} = '{t}' is not a number", self.table.file))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{FILES, Table};
+
+    /// Every file parses, with as many fields a row as headers and every field after the
+    /// first text column a number where the header says it is one.
+    #[test]
+    fn every_transcribed_table_parses() {
+        for (file, _) in FILES {
+            let t = Table::load(file);
+            assert!(t.rows().count() > 0, "{file}: no rows");
+            for r in &t.rows {
+                assert_eq!(r.len(), t.headers.len(), "{file}: {r:?}");
+            }
+            for row in t.rows() {
+                for h in &t.headers {
+                    let text = row.text(h);
+                    if h.ends_with("percent") || h.starts_with("method") || h == "planes" {
+                        assert!(text.parse::<f64>().is_ok(), "{file}: {h} = {text}");
+                    }
+                }
+            }
+        }
+    }
+}
