@@ -106,3 +106,57 @@ fn havran_splits_quick_writes_consistent_data() {
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }
+
+#[test]
+fn scg97_levels_quick_writes_consistent_data_and_plots() {
+    let (dir, out) = run("scg97-levels", Path::new("no-such-folder"));
+    let report = read(&out, "report.md");
+    let levels = csv_rows(&read(&out, "levels.csv"));
+    let rendering = csv_rows(&read(&out, "rendering.csv"));
+    let json: serde_json::Value = serde_json::from_str(&read(&out, "data.json")).unwrap();
+    assert_eq!(json["levels"].as_array().unwrap().len(), levels.len());
+    assert_eq!(json["rendering"].as_array().unwrap().len(), rendering.len());
+    let number = |r: &std::collections::HashMap<String, String>, k: &str| -> f64 {
+        r[k].parse().unwrap_or_else(|_| panic!("{k} = {}", r[k]))
+    };
+    // Shares of a structure's levels sum to 100: objects, grids, cells, references.
+    for s in ["g28", "hug", "r50"] {
+        let of: Vec<_> = levels.iter().filter(|r| r["structure"] == s).collect();
+        assert!(!of.is_empty(), "{s}");
+        for k in ["pct_obj", "pct_grids", "pct_voxels", "pct_ptrs"] {
+            let sum: f64 = of.iter().map(|r| number(r, k)).sum();
+            assert!((sum - 100.0).abs() < 1e-6, "{s} {k} sums to {sum}");
+        }
+        for view in ["fig5", "fig21"] {
+            let of: Vec<_> = rendering
+                .iter()
+                .filter(|r| r["structure"] == s && r["view"] == view)
+                .collect();
+            for k in ["pct_pit", "pct_pi", "pct_bbi", "pct_vt"] {
+                let sum: f64 = of.iter().map(|r| number(r, k)).sum();
+                assert!((sum - 100.0).abs() < 1e-6, "{s} {view} {k} sums to {sum}");
+            }
+        }
+    }
+    // A plotted point per level of the HUG and r50, today's and the paper's.
+    for view in ["fig5", "fig21"] {
+        let today = rendering
+            .iter()
+            .filter(|r| r["view"] == view && r["structure"] != "g28")
+            .count();
+        // SCG97 gives 3 HUG levels and 4 r50 levels from each viewpoint.
+        let published = 7;
+        let svg = read(&out, &format!("pit-levels-{view}.svg"));
+        assert_eq!(svg.matches("<circle").count(), today + published, "{view}");
+    }
+    let judged = verdict_lines(&report)
+        .iter()
+        .filter(|l| {
+            ["holds", "is a tie here", "does not hold"]
+                .iter()
+                .any(|w| l.contains(w))
+        })
+        .count();
+    assert_eq!(judged, 9, "{report}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

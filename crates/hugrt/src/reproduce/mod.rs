@@ -9,6 +9,7 @@ mod eg95;
 mod havran;
 mod plot;
 mod published;
+mod scg97;
 
 use crate::scene::generate::generate;
 use serde::Serialize;
@@ -49,6 +50,11 @@ pub const TARGETS: &[Target] = &[
         name: "scg97-scenes",
         what: "SCG97 Fig. 4: the test scenes' statistics (objects, min/max, min/diag, %.2) and the distribution of object lengths",
         run: scg97_scenes,
+    },
+    Target {
+        name: "scg97-levels",
+        what: "SCG97 Figs. 12-23: per level of the uniform grid, the HUG and the recursive grid on the kitchen, resources, occupancy and rendering counters from two viewpoints",
+        run: scg97::scg97_levels,
     },
     Target {
         name: "havran-splits",
