@@ -160,3 +160,30 @@ fn scg97_levels_quick_writes_consistent_data_and_plots() {
     assert_eq!(judged, 9, "{report}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn scg97_improved_quick_judges_both_claims_from_its_rows() {
+    let (dir, out) = run("scg97-improved", Path::new("no-such-folder"));
+    let report = read(&out, "report.md");
+    let rows = csv_rows(&read(&out, "rows.csv"));
+    // Three world grids and three MAXPs on the quick run's kitchen.
+    assert_eq!(rows.len(), 6, "{report}");
+    assert_eq!(
+        read(&out, "time-memory.svg").matches("<circle").count(),
+        rows.len()
+    );
+    for r in &rows {
+        assert!(r["memory_mb"].parse::<f64>().unwrap() > 0.0);
+        assert!(report.contains(&format!("`{}`", r["spec"].replace(';', ","))));
+    }
+    let judged = verdict_lines(&report)
+        .iter()
+        .filter(|l| {
+            ["holds", "is a tie here", "does not hold", "not judged"]
+                .iter()
+                .any(|w| l.contains(w))
+        })
+        .count();
+    assert_eq!(judged, 2, "{report}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

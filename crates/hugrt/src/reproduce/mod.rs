@@ -57,6 +57,11 @@ pub const TARGETS: &[Target] = &[
         run: scg97::scg97_levels,
     },
     Target {
+        name: "scg97-improved",
+        what: "SCG97 section 7.5: the two-level-filter HUG with a tuned world grid against the recursive grid, at MAXP 50 and at equal memory",
+        run: scg97::scg97_improved,
+    },
+    Target {
         name: "havran-splits",
         what: "Havran 1997 Tables 4-6: how often the optimal plane lies outside the median interval; the septet and triplet of the mid-point split against the SAH with empty space cut off",
         run: havran::havran_splits,
