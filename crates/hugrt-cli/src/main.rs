@@ -604,7 +604,11 @@ impl ReproduceArgs {
             threads,
         } = self;
         let targets = hugrt::reproduce::resolve(&targets)?;
-        let options = hugrt::reproduce::Options { quick, spd_dir };
+        let options = hugrt::reproduce::Options {
+            quick,
+            spd_dir,
+            hugrt_exe: std::env::current_exe().ok(),
+        };
         let bar = ProgressBar::new(targets.len() as u64);
         bar.set_style(
             ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} {msg}")?

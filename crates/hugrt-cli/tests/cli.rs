@@ -650,3 +650,39 @@ fn structures_lists_every_key_with_its_default() {
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).contains("brute, grid"), "{}", stderr(&o));
 }
+
+#[test]
+fn reproduce_havran_layouts_measures_the_cache_under_cachegrind() {
+    let valgrind = std::process::Command::new("valgrind")
+        .arg("--version")
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !valgrind {
+        eprintln!("skipped: valgrind is not installed (Debian's package `valgrind`)");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().to_str().unwrap();
+    let o = hugrt(&["reproduce", "havran-layouts", "--quick", "-o", out]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let t = dir.path().join("havran-layouts");
+    let csv = std::fs::read_to_string(t.join("layouts.csv")).unwrap();
+    let report = std::fs::read_to_string(t.join("report.md")).unwrap();
+    assert!(report.contains("Cachegrind ran"), "{report}");
+    let mut r = csv::Reader::from_reader(csv.as_bytes());
+    let h = r.headers().unwrap().clone();
+    let at = |name: &str| h.iter().position(|x| x == name).unwrap();
+    let (refs, misses, hits) = (
+        at("data_refs_per_ray"),
+        at("d1_misses_per_ray"),
+        at("d1_hit_percent"),
+    );
+    for rec in r.records() {
+        let rec = rec.unwrap();
+        let n = |k: usize| rec[k].parse::<f64>().unwrap();
+        // Per ray of the difference: references and misses, and the share they make.
+        assert!(n(refs) > 0.0 && n(misses) >= 0.0, "{rec:?}");
+        let share = 100.0 * (1.0 - n(misses) / n(refs));
+        assert!((share - n(hits)).abs() < 1e-6, "{rec:?}");
+    }
+}

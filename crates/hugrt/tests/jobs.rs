@@ -162,6 +162,7 @@ fn a_reproduction_says_why_it_skipped_a_scene() {
     let options = hugrt::reproduce::Options {
         quick: true,
         spd_dir: spd.clone(),
+        ..Default::default()
     };
     let out = hugrt::reproduce::run("rtnews-spd", &options, &dir).unwrap();
     let report = std::fs::read_to_string(out.join("report.md")).unwrap();
@@ -181,6 +182,7 @@ fn eg95_kitchens_quick_writes_consistent_data_and_plots() {
     let options = hugrt::reproduce::Options {
         quick: true,
         spd_dir: dir.join("none"),
+        ..Default::default()
     };
     let out = hugrt::reproduce::run("eg95-kitchens", &options, &dir).unwrap();
     let read = |f: &str| std::fs::read_to_string(out.join(f)).unwrap();

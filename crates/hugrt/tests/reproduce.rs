@@ -9,6 +9,7 @@ fn run(target: &str, spd_dir: &Path) -> (PathBuf, PathBuf) {
     let options = hugrt::reproduce::Options {
         quick: true,
         spd_dir: spd_dir.to_path_buf(),
+        ..Default::default()
     };
     let out = hugrt::reproduce::run(target, &options, &dir).unwrap();
     (dir, out)
@@ -185,5 +186,22 @@ fn scg97_improved_quick_judges_both_claims_from_its_rows() {
         })
         .count();
     assert_eq!(judged, 2, "{report}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn havran_layouts_quick_times_every_layout_and_says_what_it_could_not_measure() {
+    // The library gives no hugrt binary to run under cachegrind: the report says so.
+    let (dir, out) = run("havran-layouts", Path::new("no-such-folder"));
+    let report = read(&out, "report.md");
+    let rows = csv_rows(&read(&out, "layouts.csv"));
+    assert_eq!(rows.len(), 5, "{report}");
+    let dfs = rows.iter().find(|r| r["layout"] == "depth-first").unwrap();
+    assert_eq!(dfs["time_over_dfs"], "1");
+    assert!(rows.iter().all(|r| r["d1_misses_per_ray"].is_empty()));
+    assert!(report.contains("Cachegrind was not run"), "{report}");
+    let lines = verdict_lines(&report);
+    assert_eq!(lines.len(), 5, "{report}");
+    assert!(lines[4].contains("not judged"), "{report}");
     std::fs::remove_dir_all(&dir).unwrap();
 }

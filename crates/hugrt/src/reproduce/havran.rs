@@ -15,6 +15,7 @@ use super::Output;
 use super::published::Table;
 use crate::bench::{BenchRow, Candidate, Workload, bench_scene};
 use crate::scene::Scene;
+use crate::scene::generate::generate;
 use serde::Serialize;
 use std::fmt::Write as _;
 
@@ -134,8 +135,7 @@ pub(super) fn havran_splits(o: &super::Options) -> Output {
             }
             Source::Generated(kind, size, quick_size) => {
                 let size = if o.quick { *quick_size } else { *size };
-                let scene =
-                    crate::scene::generate::generate(kind, size, 1).expect("a generated kind");
+                let scene = generate(kind, size, 1).expect("a generated kind");
                 (scene, format!("builtin:{kind}:{size}"))
             }
         };
@@ -430,4 +430,349 @@ pub(super) fn significant(x: f64) -> String {
     }
     let digits = (3 - x.abs().log10().floor() as i32).clamp(0, 8) as usize;
     format!("{x:.digits$}")
+}
+
+/// hugrt's layouts in Havran's Table 7 order, with breadth-first beside them.
+const LAYOUTS: [&str; 5] = [
+    "scattered",
+    "depth-first",
+    "breadth-first",
+    "subtrees",
+    "compact",
+];
+
+/// Havran's simulated cache (§4.3.5): 1 MB, four-way set-associative, 128-byte lines, given
+/// to cachegrind as its first-level data cache (and a larger last level, which it requires).
+const HAVRAN_CACHE: [&str; 2] = ["--D1=1048576,4,128", "--LL=8388608,16,128"];
+
+#[derive(Clone, Debug, Serialize)]
+struct LayoutRow {
+    layout: &'static str,
+    spec: String,
+    trace_ms: f64,
+    mrays_per_s: f64,
+    memory_bytes: usize,
+    /// Over depth-first's trace time.
+    time_over_dfs: f64,
+    /// From cachegrind with Havran's cache, per ray of the difference of two ray counts.
+    data_refs_per_ray: Option<f64>,
+    d1_misses_per_ray: Option<f64>,
+    d1_hit_percent: Option<f64>,
+}
+
+/// Data references and first-level data misses of one run under cachegrind, or why not.
+fn cachegrind(exe: &std::path::Path, args: &[String]) -> Result<(f64, f64), String> {
+    let out = std::process::Command::new("valgrind")
+        .args([
+            "--tool=cachegrind",
+            "--cache-sim=yes",
+            "--cachegrind-out-file=/dev/null",
+        ])
+        .args(HAVRAN_CACHE)
+        .arg(exe)
+        .args(args)
+        .output()
+        .map_err(|e| format!("valgrind: {e}"))?;
+    let text = String::from_utf8_lossy(&out.stderr);
+    if !out.status.success() {
+        return Err(format!(
+            "valgrind exited with {}: {}",
+            out.status,
+            text.lines().last().unwrap_or("")
+        ));
+    }
+    let read = |label: &str| {
+        text.lines()
+            .find_map(|l| {
+                let rest = l.split_once(label)?.1;
+                let n: String = rest
+                    .trim_start()
+                    .chars()
+                    .take_while(|c| c.is_ascii_digit() || *c == ',')
+                    .filter(|c| *c != ',')
+                    .collect();
+                n.parse::<f64>().ok()
+            })
+            .ok_or_else(|| format!("no '{label}' in cachegrind's summary"))
+    };
+    Ok((read("D   refs:")?, read("D1  misses:")?))
+}
+
+/// `havran-layouts`: Havran 1997 §4.3, Tables 7–8: the kd-tree's layouts in memory, their
+/// trace time and their cache behaviour (cachegrind with Havran's simulated cache).
+///
+/// Choices: the tree is `kdtree:preset=havran` with each `layout`; the rays are incoherent
+/// (origins in the box, directions on the sphere), so that paths through the tree differ
+/// from ray to ray as Havran's depth-first traversals of the whole tree do. Cachegrind
+/// counts every data access of the process, not the nodes' alone: the accesses of the
+/// tracing are isolated as the difference between runs of 2N and N rays, and their hit
+/// ratio stands beside Havran's per-node C_HR. Table 8's ratio by depth needs each node
+/// access tagged with its depth, which cachegrind cannot do; it is not regenerated.
+pub(super) fn havran_layouts(o: &super::Options) -> Output {
+    let table7 = Table::load("havran97-table7.csv");
+    let (kind, size, rays, repeat, cg_rays) = if o.quick {
+        ("room", 3000, 20_000, 1, 1_000)
+    } else {
+        ("building", 4, 1_000_000, 5, 20_000)
+    };
+    let name = format!("builtin:{kind}:{size}");
+    // The room is `Scene::open`'s built-in, not a generated kind.
+    let scene = if kind == "room" {
+        Scene::open(&name).expect("a built-in scene")
+    } else {
+        generate(kind, size, 1).expect("a generated kind")
+    };
+    let specs: Vec<String> = LAYOUTS
+        .iter()
+        .map(|l| format!("kdtree:preset=havran,layout={l}"))
+        .collect();
+    let candidates: Vec<Candidate> = specs.iter().map(|s| Candidate::spec(&scene, s)).collect();
+    let mut problems = Vec::new();
+    let measured = bench_scene(
+        &name,
+        &scene,
+        &candidates,
+        Workload::Incoherent { rays },
+        repeat,
+        &mut |_| {},
+    )
+    .unwrap_or_else(|e| {
+        problems.push(format!("{name}: {e}"));
+        Vec::new()
+    });
+    let dfs = measured
+        .get(1)
+        .map_or(f64::NAN, |m: &BenchRow| m.trace.median_ms);
+    let mut rows: Vec<LayoutRow> = LAYOUTS
+        .iter()
+        .zip(&specs)
+        .zip(&measured)
+        .map(|((layout, spec), m)| LayoutRow {
+            layout,
+            spec: spec.clone(),
+            trace_ms: m.trace.median_ms,
+            mrays_per_s: m.mrays_per_s,
+            memory_bytes: m.memory_bytes,
+            time_over_dfs: m.trace.median_ms / dfs,
+            data_refs_per_ray: None,
+            d1_misses_per_ray: None,
+            d1_hit_percent: None,
+        })
+        .collect();
+    // Cachegrind, where it and the hugrt binary are at hand.
+    let valgrind = std::process::Command::new("valgrind")
+        .arg("--version")
+        .output()
+        .is_ok_and(|o| o.status.success());
+    let cache_note = match (&o.hugrt_exe, valgrind) {
+        (None, _) => "Cachegrind was not run: no hugrt binary to run under it (the library's \
+                      caller gave none; `hugrt reproduce` gives itself)."
+            .to_string(),
+        (Some(_), false) => "Cachegrind was not run: valgrind is not installed here \
+                             (Debian's package `valgrind`)."
+            .to_string(),
+        (Some(exe), true) => {
+            for row in rows.iter_mut() {
+                let args = |n: usize| -> Vec<String> {
+                    [
+                        "bench",
+                        &name,
+                        "--accel",
+                        &row.spec,
+                        "--rays",
+                        "incoherent",
+                        "--ray-count",
+                        &n.to_string(),
+                        "--repeat",
+                        "1",
+                        "--threads",
+                        "1",
+                    ]
+                    .iter()
+                    .map(|s| s.to_string())
+                    .collect()
+                };
+                match (
+                    cachegrind(exe, &args(cg_rays)),
+                    cachegrind(exe, &args(2 * cg_rays)),
+                ) {
+                    (Ok((r1, m1)), Ok((r2, m2))) => {
+                        let (refs, misses) = (r2 - r1, m2 - m1);
+                        row.data_refs_per_ray = Some(refs / cg_rays as f64);
+                        row.d1_misses_per_ray = Some(misses / cg_rays as f64);
+                        row.d1_hit_percent =
+                            Some(100.0 * (1.0 - misses / refs.max(1.0))).filter(|x| x.is_finite());
+                    }
+                    (Err(e), _) | (_, Err(e)) => problems.push(format!("{}: {e}", row.layout)),
+                }
+            }
+            format!(
+                "Cachegrind ran `hugrt bench {name} --rays incoherent` with {cg_rays} and {} \
+                 rays per layout, one thread, with Havran's cache ({}); the columns are the \
+                 difference per ray.",
+                2 * cg_rays,
+                HAVRAN_CACHE.join(" ")
+            )
+        }
+    };
+    let mut report = format!(
+        "# Havran 1997 §4.3: the kd-tree's layouts in memory\n\nRegenerated by `hugrt \
+         reproduce havran-layouts{}` on `{name}` ({} primitives): `kdtree:preset=havran` with \
+         each layout, {rays} incoherent rays, the median of {repeat} run(s) on this machine. \
+         Havran's times are cycles of a model and of a simulation (a 1 MB cache, T_MM = 53 \
+         cycles): compare ratios to depth-first. {cache_note} Published figures: \
+         `data/published/{}` and `havran97-table8.csv`.\n\n",
+        if o.quick { " --quick" } else { "" },
+        scene.shapes.len(),
+        table7.file
+    );
+    if !problems.is_empty() {
+        let _ = writeln!(report, "Problems: {}.\n", problems.join("; "));
+    }
+    let _ = writeln!(
+        report,
+        "| layout | Havran's representation | t'_A / DFS published | C_HR % published | trace ms \
+         | Mrays/s | time / depth-first | MB | data refs per ray | D1 misses per ray | D1 hits % \
+         |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"
+    );
+    let dfs_published = table7
+        .rows_where("layout", "depth-first")
+        .next()
+        .map_or(f64::NAN, |r| r.number("t_a_simulated"));
+    let opt = |x: Option<f64>| x.map_or("–".into(), significant);
+    for r in &rows {
+        let p = table7.rows_where("layout", r.layout).next();
+        let _ = writeln!(
+            report,
+            "| {} | {} | {} | {} | {} | {} | {} | {:.2} | {} | {} | {} |",
+            r.layout,
+            p.map_or("–", |p| p.text("representation")),
+            p.map_or("–".into(), |p| significant(
+                p.number("t_a_simulated") / dfs_published
+            )),
+            p.map_or("–", |p| p.text("c_hr_percent")),
+            significant(r.trace_ms),
+            significant(r.mrays_per_s),
+            significant(r.time_over_dfs),
+            r.memory_bytes as f64 / 1e6,
+            opt(r.data_refs_per_ray),
+            opt(r.d1_misses_per_ray),
+            opt(r.d1_hit_percent)
+        );
+    }
+    report.push_str(&layout_verdicts(&rows));
+    let mut csv = String::from(
+        "layout,spec,trace_ms,mrays_per_s,memory_bytes,time_over_dfs,data_refs_per_ray,d1_misses_per_ray,d1_hit_percent\n",
+    );
+    let cell = |x: Option<f64>| x.map_or(String::new(), |x| x.to_string());
+    for r in &rows {
+        let _ = writeln!(
+            csv,
+            "{},{},{},{},{},{},{},{},{}",
+            r.layout,
+            r.spec.replace(',', ";"),
+            r.trace_ms,
+            r.mrays_per_s,
+            r.memory_bytes,
+            r.time_over_dfs,
+            cell(r.data_refs_per_ray),
+            cell(r.d1_misses_per_ray),
+            cell(r.d1_hit_percent)
+        );
+    }
+    let json = serde_json::to_string_pretty(&serde_json::json!({
+        "target": "havran-layouts",
+        "scene": name,
+        "rays": rays,
+        "rows": rows,
+        "cachegrind": cache_note,
+        "problems": problems,
+    }))
+    .expect("serialisable");
+    Output {
+        files: vec![
+            ("report.md", report),
+            ("layouts.csv", csv),
+            ("data.json", json + "\n"),
+        ],
+    }
+}
+
+fn layout_verdicts(rows: &[LayoutRow]) -> String {
+    let mut out = format!(
+        "\n## Verdict\n\nThresholds: a ratio of times is a gain below 1/{TIE} and a tie within \
+         ×{TIE}; misses are ordered when each layout's are at most ×{TIE} the previous \
+         one's.\n\n"
+    );
+    let of = |l: &str| rows.iter().find(|r| r.layout == l);
+    let judge = |r: f64, claim_faster: bool| {
+        let faster = if claim_faster { r < 1.0 / TIE } else { r > TIE };
+        if faster {
+            "holds"
+        } else if (1.0 / TIE..=TIE).contains(&r) {
+            "is a tie here"
+        } else {
+            "does not hold"
+        }
+    };
+    for (layout, published) in [("subtrees", 0.708), ("compact", 0.603)] {
+        if let Some(r) = of(layout) {
+            let _ = writeln!(
+                out,
+                "- Table 7, the {layout} representation traverses faster than depth-first: {} \
+                 (time over depth-first {:.2}; published t'_A {published:.2}).",
+                judge(r.time_over_dfs, true),
+                r.time_over_dfs
+            );
+        }
+    }
+    if let Some(r) = of("scattered") {
+        let _ = writeln!(
+            out,
+            "- Table 7, nodes at random are the slowest: slower than depth-first {} (time over \
+             depth-first {:.2}; published t'_A 1.57).",
+            judge(r.time_over_dfs, false),
+            r.time_over_dfs
+        );
+    }
+    if let (Some(c), Some(d)) = (of("compact"), of("depth-first")) {
+        let ratio = c.memory_bytes as f64 / d.memory_bytes.max(1) as f64;
+        let _ = writeln!(
+            out,
+            "- §4.3.5, \"the memory required for representation of the binary tree is \
+             decreased by 57%\": {} here (compact over depth-first, the whole structure with \
+             its references: {ratio:.2}; published 0.43).",
+            if ratio < 1.0 / TIE {
+                "holds"
+            } else {
+                "does not hold"
+            }
+        );
+    }
+    let order = ["scattered", "depth-first", "subtrees", "compact"];
+    let misses: Vec<(String, f64)> = order
+        .iter()
+        .filter_map(|l| Some((l.to_string(), of(l)?.d1_misses_per_ray?)))
+        .collect();
+    if misses.len() == order.len() {
+        let ordered = misses.windows(2).all(|w| w[1].1 <= w[0].1 * TIE);
+        let listed: Vec<String> = misses
+            .iter()
+            .map(|(l, m)| format!("{l} {}", significant(*m)))
+            .collect();
+        let _ = writeln!(
+            out,
+            "- Table 7, the hit ratio rises from random through depth-first and subtrees to \
+             compact (published 35.8, 69.8, 83.5, 90.3%), so misses fall in that order: {} \
+             here (first-level data misses per ray: {}); the hit ratio of all data accesses \
+             is in the table, nodes' and everything else's together.",
+            if ordered { "holds" } else { "does not hold" },
+            listed.join(", ")
+        );
+    } else {
+        out.push_str(
+            "- Table 7's hit ratios: not judged, cachegrind's figures are missing (see above).\n",
+        );
+    }
+    out
 }

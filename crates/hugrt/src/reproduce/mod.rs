@@ -32,6 +32,9 @@ pub struct Options {
     /// Where the SPD scenes are (`NAME.nff.gz`); targets that need them say so in their
     /// report when they are absent.
     pub spd_dir: PathBuf,
+    /// The hugrt binary, for targets that run it under a tool (cachegrind); without it they
+    /// say in their report what they could not measure.
+    pub hugrt_exe: Option<PathBuf>,
 }
 
 /// What a target writes: file name and contents.
@@ -65,6 +68,11 @@ pub const TARGETS: &[Target] = &[
         name: "havran-splits",
         what: "Havran 1997 Tables 4-6: how often the optimal plane lies outside the median interval; the septet and triplet of the mid-point split against the SAH with empty space cut off",
         run: havran::havran_splits,
+    },
+    Target {
+        name: "havran-layouts",
+        what: "Havran 1997 Tables 7-8: the kd-tree's layouts in memory, their trace time and their cache behaviour under cachegrind with Havran's simulated cache",
+        run: havran::havran_layouts,
     },
     Target {
         name: "rtnews-spd",

@@ -28,6 +28,14 @@ const FILES: &[(&str, &str)] = &[
         include_str!("../../data/published/scg97-figs20-23-times.csv"),
     ),
     (
+        "havran97-table7.csv",
+        include_str!("../../data/published/havran97-table7.csv"),
+    ),
+    (
+        "havran97-table8.csv",
+        include_str!("../../data/published/havran97-table8.csv"),
+    ),
+    (
         "havran97-table4.csv",
         include_str!("../../data/published/havran97-table4.csv"),
     ),
