@@ -173,14 +173,21 @@ struct SceneRow {
     percent_below_0_2: f64,
 }
 
-/// SCG97 Fig. 4 as published.
-const SCG97_FIG4: &[(&str, usize, f64, f64, f64)] = &[
-    ("Kitchen", 20947, 9.0e-4, 6.5e-4, 99.29),
-    ("CSB walls", 32811, 5.7e-4, 3.6e-4, 99.49),
-    ("CSB 3rd floor", 117605, 1.0e-5, 8.1e-6, 99.99),
-    ("City", 52136, 2.9e-3, 1.0e-3, 99.85),
-    ("Garden", 45293, 4.3e-3, 1.1e-3, 99.72),
-];
+/// SCG97 Fig. 4 as published: scene, polygons, min/max, min/diag, %.2.
+fn scg97_fig4() -> Vec<(String, usize, f64, f64, f64)> {
+    published::Table::load("scg97-fig4-scenes.csv")
+        .rows()
+        .map(|r| {
+            (
+                r.text("scene").to_string(),
+                r.number("polygons") as usize,
+                r.number("min_over_max"),
+                r.number("min_over_diag"),
+                r.number("pct_below_0_2"),
+            )
+        })
+        .collect()
+}
 
 /// Bins of the length histogram over `[0, 0.2]` of the longest object, where SCG97's figures
 /// stop ("most of the objects' sizes are smaller than the size of the largest objects over 5").
@@ -246,7 +253,8 @@ fn scg97_scenes(o: &Options) -> Output {
     );
     let mut ours = rows.iter();
     let (mut holds, mut compared, mut spread) = (0, 0, 0);
-    for ((name, polys, mm, md, p2), (_, stand_in)) in SCG97_FIG4.iter().zip(&pairs) {
+    let fig4 = scg97_fig4();
+    for ((name, polys, mm, md, p2), (_, stand_in)) in fig4.iter().zip(&pairs) {
         let theirs = format!("| {name} | {polys} | {mm:.1e} | {md:.1e} | {p2:.2} |");
         match stand_in {
             None => {
@@ -299,14 +307,14 @@ fn scg97_scenes(o: &Options) -> Output {
             );
         }
     }
-    let published: Vec<SceneRow> = SCG97_FIG4
+    let published: Vec<SceneRow> = fig4
         .iter()
-        .map(|&(name, polys, mm, md, p2)| SceneRow {
-            scene: name.to_string(),
-            objects: polys,
-            min_over_max: mm,
-            min_over_diag: md,
-            percent_below_0_2: p2,
+        .map(|(name, polys, mm, md, p2)| SceneRow {
+            scene: name.clone(),
+            objects: *polys,
+            min_over_max: *mm,
+            min_over_diag: *md,
+            percent_below_0_2: *p2,
         })
         .collect();
     let json = serde_json::to_string_pretty(&serde_json::json!({
@@ -329,43 +337,35 @@ fn scg97_scenes(o: &Options) -> Output {
     }
 }
 
-/// RTNews' timings (Pentium II 350 MHz): per structure, `T_B` and `T_TR` in seconds for balls,
-/// gears, lattice, mount, rings, teapot, tetra, tree.
+/// The SPD scenes of RTNews' table, in its order.
 const RTNEWS_SCENES: [&str; 8] = [
     "balls", "gears", "lattice", "mount", "rings", "teapot", "tetra", "tree",
 ];
-const RTNEWS_TABLE: &[(&str, &str, [f64; 8], [f64; 8])] = &[
-    (
-        "Uniform grid, D = 1",
-        "grid:density=1",
-        [0.19, 0.38, 0.38, 0.26, 0.35, 0.3, 0.13, 0.22],
-        [244.7, 201.0, 54.68, 28.99, 129.8, 28.68, 5.54, 1517.0],
-    ),
-    (
-        "Uniform grid, D = 20",
-        "grid:density=20",
-        [0.39, 1.13, 1.27, 0.4, 0.98, 0.65, 0.34, 0.33],
-        [38.52, 192.3, 34.21, 25.15, 83.7, 18.6, 3.86, 781.3],
-    ),
-    (
-        "Recursive grid",
-        "rgrid",
-        [0.39, 5.06, 0.16, 1.98, 0.39, 1.55, 0.47, 0.28],
-        [36.73, 214.9, 82.05, 30.28, 113.9, 22.67, 7.23, 33.91],
-    ),
-    (
-        "HUG",
-        "hug",
-        [0.4, 1.04, 0.3, 0.16, 0.45, 0.53, 0.24, 0.48],
-        [34.0, 242.1, 71.62, 62.31, 116.3, 25.61, 7.22, 33.48],
-    ),
-    (
-        "Adaptive grid",
-        "agrid",
-        [2.79, 5.88, 0.6, 2.54, 1.82, 3.16, 1.19, 1.46],
-        [30.51, 330.0, 129.6, 59.05, 167.7, 43.04, 8.71, 18.38],
-    ),
-];
+/// RTNews' table as published (`data/published/rtnews-table.csv`): per structure, its label,
+/// its hugrt spec, and `T_B` and `T_TR` in seconds on [`RTNEWS_SCENES`].
+fn rtnews_table() -> Vec<(String, String, [f64; 8], [f64; 8])> {
+    let table = published::Table::load("rtnews-table.csv");
+    let mut out: Vec<(String, String, [f64; 8], [f64; 8])> = Vec::new();
+    for r in table.rows() {
+        let label = r.text("structure");
+        if out.last().is_none_or(|o| o.0 != label) {
+            out.push((
+                label.to_string(),
+                r.text("spec").to_string(),
+                [0.0; 8],
+                [0.0; 8],
+            ));
+        }
+        let k = RTNEWS_SCENES
+            .iter()
+            .position(|s| *s == r.text("scene"))
+            .expect("an RTNews scene");
+        let last = out.last_mut().expect("a row");
+        last.2[k] = r.number("t_b_s");
+        last.3[k] = r.number("t_tr_s");
+    }
+    out
+}
 
 #[derive(Clone, Debug, Serialize)]
 struct RtnewsRow {
@@ -394,6 +394,7 @@ fn rtnews_spd(o: &Options) -> Output {
          uniform grid's at D = 1 on the same scene.\n\n",
         if o.quick { " --quick" } else { "" }
     );
+    let table = rtnews_table();
     let mut rows = Vec::new();
     let mut missing = Vec::new();
     for (k, name) in RTNEWS_SCENES.iter().enumerate() {
@@ -407,7 +408,7 @@ fn rtnews_spd(o: &Options) -> Output {
                 continue;
             }
         };
-        let candidates: Vec<Candidate> = RTNEWS_TABLE
+        let candidates: Vec<Candidate> = table
             .iter()
             .map(|(_, spec, _, _)| Candidate::spec(&scene, spec))
             .collect();
@@ -424,8 +425,8 @@ fn rtnews_spd(o: &Options) -> Output {
                 continue;
             }
         };
-        let (pub_d1, ours_d1) = (RTNEWS_TABLE[0].3[k], measured[0].trace.median_ms);
-        for ((label, spec, tb, ttr), m) in RTNEWS_TABLE.iter().zip(&measured) {
+        let (pub_d1, ours_d1) = (table[0].3[k], measured[0].trace.median_ms);
+        for ((label, spec, tb, ttr), m) in table.iter().zip(&measured) {
             rows.push(RtnewsRow {
                 scene: name.to_string(),
                 structure: label.to_string(),

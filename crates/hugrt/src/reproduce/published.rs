@@ -36,6 +36,14 @@ const FILES: &[(&str, &str)] = &[
         include_str!("../../data/published/havran97-table8.csv"),
     ),
     (
+        "scg97-fig4-scenes.csv",
+        include_str!("../../data/published/scg97-fig4-scenes.csv"),
+    ),
+    (
+        "rtnews-table.csv",
+        include_str!("../../data/published/rtnews-table.csv"),
+    ),
+    (
         "havran97-table4.csv",
         include_str!("../../data/published/havran97-table4.csv"),
     ),
