@@ -149,6 +149,15 @@ fn scg97_levels_quick_writes_consistent_data_and_plots() {
         let published = 7;
         let svg = read(&out, &format!("pit-levels-{view}.svg"));
         assert_eq!(svg.matches("<circle").count(), today + published, "{view}");
+        // The PNG beside it, where the machine has a font to draw its text with.
+        let png = out.join(format!("pit-levels-{view}.png"));
+        let font = Path::new("/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf").is_file();
+        if font {
+            let image = image::open(&png).unwrap();
+            assert_eq!((image.width(), image.height()), (720, 480));
+        } else {
+            eprintln!("no DejaVu Sans here: the PNG plots may be left out");
+        }
     }
     let judged = verdict_lines(&report)
         .iter()

@@ -15,7 +15,7 @@
 //! elementary cell (Havran's `N_C`) and an item a primitive.
 
 use super::Output;
-use super::plot::{Series, svg};
+use super::plot::{Plot, Series};
 use crate::bench::{Candidate, Workload, bench_scene};
 use crate::scene::generate::generate;
 use serde::Serialize;
@@ -51,8 +51,8 @@ struct Row {
     nu1: f64,
 }
 
-/// A plot of the report: its file, the set of scenes, the y axis, the value and the title.
-type Plot = (
+/// A plot of the report: its file stem, the set of scenes, the y axis, the value and the title.
+type Figure = (
     &'static str,
     &'static str,
     &'static str,
@@ -188,50 +188,51 @@ pub(super) fn eg95_kitchens(o: &super::Options) -> Output {
     }))
     .expect("serialisable");
     files.push(("data.json", json + "\n"));
-    let plots: [Plot; 6] = [
+    let plots: [Figure; 6] = [
         (
-            "fig11a-time-one-kitchen.svg",
+            "fig11a-time-one-kitchen",
             "one kitchen",
             "render ms",
             |r| r.render_ms,
             "Fig. 11(a): render time, one kitchen",
         ),
         (
-            "fig11b-time-many-kitchens.svg",
+            "fig11b-time-many-kitchens",
             "many kitchens",
             "render ms",
             |r| r.render_ms,
             "Fig. 11(b): render time, many kitchens",
         ),
         (
-            "fig12a-memory-one-kitchen.svg",
+            "fig12a-memory-one-kitchen",
             "one kitchen",
             "MB",
             |r| r.memory_mb,
             "Fig. 12(a): memory, one kitchen",
         ),
         (
-            "fig12b-memory-many-kitchens.svg",
+            "fig12b-memory-many-kitchens",
             "many kitchens",
             "MB",
             |r| r.memory_mb,
             "Fig. 12(b): memory, many kitchens",
         ),
         (
-            "fig13a-nu1-one-kitchen.svg",
+            "fig13a-nu1-one-kitchen",
             "one kitchen",
             "voxels / items",
             |r| r.nu1,
             "Fig. 13(a): ν₁, one kitchen",
         ),
         (
-            "fig13b-nu1-many-kitchens.svg",
+            "fig13b-nu1-many-kitchens",
             "many kitchens",
             "voxels / items",
             |r| r.nu1,
             "Fig. 13(b): ν₁, many kitchens",
         ),
     ];
+    let mut figures = Vec::new();
     for (file, set, y, value, title) in plots {
         let series: Vec<Series> = STRUCTURES
             .iter()
@@ -245,11 +246,18 @@ pub(super) fn eg95_kitchens(o: &super::Options) -> Output {
             })
             .filter(|s| !s.points.is_empty())
             .collect();
-        if let Some(text) = svg(title, "polygons", y, &series) {
-            files.push((file, text));
-        }
+        figures.push(Plot {
+            stem: file,
+            title: title.to_string(),
+            x_label: "polygons",
+            y_label: y,
+            series,
+        });
     }
-    Output { files }
+    Output {
+        files,
+        plots: figures,
+    }
 }
 
 /// The verdict on one of EG95's statements: the published ratio (written as `shown`), the

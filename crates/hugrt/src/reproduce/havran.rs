@@ -303,6 +303,7 @@ pub(super) fn havran_splits(o: &super::Options) -> Output {
             ("properties.csv", csv),
             ("data.json", json + "\n"),
         ],
+        plots: Vec::new(),
     }
 }
 
@@ -697,6 +698,7 @@ pub(super) fn havran_layouts(o: &super::Options) -> Output {
             ("layouts.csv", csv),
             ("data.json", json + "\n"),
         ],
+        plots: Vec::new(),
     }
 }
 

@@ -40,6 +40,7 @@ pub struct Options {
 /// What a target writes: file name and contents.
 struct Output {
     files: Vec<(&'static str, String)>,
+    plots: Vec<plot::Plot>,
 }
 
 /// Every target, in the papers' order.
@@ -111,9 +112,15 @@ pub fn run(name: &str, options: &Options, dir: &Path) -> Result<PathBuf, Reprodu
     let target = target(name)?;
     let out = dir.join(target.name);
     std::fs::create_dir_all(&out).map_err(|e| ReproduceError::Write(out.clone(), e))?;
-    for (file, text) in (target.run)(options).files {
+    let output = (target.run)(options);
+    let plots = output.plots.iter().flat_map(|p| p.render());
+    let files = output
+        .files
+        .into_iter()
+        .map(|(f, text)| (f.to_string(), text.into_bytes()));
+    for (file, bytes) in files.chain(plots) {
         let path = out.join(file);
-        std::fs::write(&path, text).map_err(|e| ReproduceError::Write(path.clone(), e))?;
+        std::fs::write(&path, bytes).map_err(|e| ReproduceError::Write(path.clone(), e))?;
     }
     Ok(out)
 }
@@ -334,6 +341,7 @@ fn scg97_scenes(o: &Options) -> Output {
             ("histogram.csv", hist),
             ("data.json", json + "\n"),
         ],
+        plots: Vec::new(),
     }
 }
 
@@ -529,5 +537,6 @@ fn rtnews_spd(o: &Options) -> Output {
             ("rows.csv", csv),
             ("data.json", json + "\n"),
         ],
+        plots: Vec::new(),
     }
 }

@@ -1,8 +1,13 @@
-//! Line plots for the reports, as SVG (the `plotters` crate): one series per structure, the
-//! x axis the scene's polygon count. PNG copies wait for a font the bitmap backend can draw
-//! text with (plotters' `ttf` reads system fonts, which a CI machine may not have).
+//! Line plots for the reports (the `plotters` crate): one series per curve, as SVG and as
+//! PNG. The PNG's text needs a font file: plotters' bitmap backend draws with `ab_glyph` from
+//! a font registered at run time, the first of [`FONTS`] found on the machine (a system font
+//! rather than one shipped in the repository, whose licence and bytes the project would then
+//! carry). Plotters lays the SVG's text out with the same font's metrics, so without one
+//! no plot is drawn: [`Plot::render`] then returns no file, and the index shows none.
 
+use plotters::coord::Shift;
 use plotters::prelude::*;
+use std::sync::OnceLock;
 
 /// One curve: its label and `(x, y)` points in order of `x`.
 pub(super) struct Series {
@@ -10,9 +15,61 @@ pub(super) struct Series {
     pub points: Vec<(f64, f64)>,
 }
 
-/// An SVG line plot of `series` (axes from the data, y from 0); `None` when there is no
-/// point to plot.
-pub(super) fn svg(title: &str, x_label: &str, y_label: &str, series: &[Series]) -> Option<String> {
+/// A plot a target asks for: its file stem (written as `STEM.svg`, and `STEM.png` where a
+/// font is at hand), title, axes' labels and curves.
+pub(super) struct Plot {
+    pub stem: &'static str,
+    pub title: String,
+    pub x_label: &'static str,
+    pub y_label: &'static str,
+    pub series: Vec<Series>,
+}
+
+impl Plot {
+    /// The plot's files: SVG, then PNG where a font is at hand; none without a point.
+    pub fn render(&self) -> Vec<(String, Vec<u8>)> {
+        let (t, x, y, s) = (&self.title, self.x_label, self.y_label, &self.series);
+        let mut out = Vec::new();
+        if let Some(text) = svg(t, x, y, s) {
+            out.push((format!("{}.svg", self.stem), text.into_bytes()));
+            if let Some(bytes) = png(t, x, y, s) {
+                out.push((format!("{}.png", self.stem), bytes));
+            }
+        }
+        out
+    }
+}
+
+const SIZE: (u32, u32) = (720, 480);
+
+/// Sans-serif fonts where Debian and other systems put them.
+const FONTS: &[&str] = &[
+    "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
+    "/usr/share/fonts/TTF/DejaVuSans.ttf",
+    "/usr/share/fonts/dejavu/DejaVuSans.ttf",
+    "/usr/share/fonts/truetype/liberation/LiberationSans-Regular.ttf",
+    "/Library/Fonts/Arial.ttf",
+    "C:\\Windows\\Fonts\\arial.ttf",
+];
+
+/// Registers the first font of [`FONTS`] found as plotters' "sans-serif", once; the file it
+/// read, or `None` where there is none.
+pub(super) fn font() -> Option<&'static str> {
+    static FONT: OnceLock<Option<&'static str>> = OnceLock::new();
+    *FONT.get_or_init(|| {
+        FONTS.iter().copied().find(|path| {
+            let Ok(bytes) = std::fs::read(path) else {
+                return false;
+            };
+            // Registered once for the process's life: plotters keeps a `'static` slice.
+            let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
+            plotters::style::register_font("sans-serif", FontStyle::Normal, bytes).is_ok()
+        })
+    })
+}
+
+/// The axes' ranges from the data (y from 0), or `None` when there is nothing to plot.
+fn ranges(series: &[Series]) -> Option<((f64, f64), f64)> {
     let points = || series.iter().flat_map(|s| s.points.iter());
     let (x0, x1) = points().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
         (a.min(p.0), b.max(p.0))
@@ -21,50 +78,88 @@ pub(super) fn svg(title: &str, x_label: &str, y_label: &str, series: &[Series]) 
     if !(x0.is_finite() && x1.is_finite() && y1.is_finite()) {
         return None;
     }
-    let (x0, x1) = if x1 > x0 {
+    let x = if x1 > x0 {
         (x0, x1)
     } else {
         (x0 - 1.0, x1 + 1.0)
     };
-    let y1 = if y1 > 0.0 { y1 * 1.05 } else { 1.0 };
-    let mut out = String::new();
-    {
-        let root = SVGBackend::with_string(&mut out, (720, 480)).into_drawing_area();
-        root.fill(&WHITE).ok()?;
-        let mut chart = ChartBuilder::on(&root)
-            .caption(title, ("sans-serif", 20))
-            .margin(12)
-            .x_label_area_size(40)
-            .y_label_area_size(60)
-            .build_cartesian_2d(x0..x1, 0.0..y1)
-            .ok()?;
+    Some((x, if y1 > 0.0 { y1 * 1.05 } else { 1.0 }))
+}
+
+fn draw<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    series: &[Series],
+) -> Option<()> {
+    let ((x0, x1), y1) = ranges(series)?;
+    root.fill(&WHITE).ok()?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 20))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d(x0..x1, 0.0..y1)
+        .ok()?;
+    chart
+        .configure_mesh()
+        .x_desc(x_label)
+        .y_desc(y_label)
+        .draw()
+        .ok()?;
+    for (k, s) in series.iter().enumerate() {
+        let colour = Palette99::pick(k).to_rgba();
         chart
-            .configure_mesh()
-            .x_desc(x_label)
-            .y_desc(y_label)
-            .draw()
-            .ok()?;
-        for (k, s) in series.iter().enumerate() {
-            let colour = Palette99::pick(k).to_rgba();
-            chart
-                .draw_series(LineSeries::new(
-                    s.points.iter().copied(),
-                    colour.stroke_width(2),
-                ))
-                .ok()?
-                .label(s.label.clone())
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], colour));
-            chart
-                .draw_series(s.points.iter().map(|&p| Circle::new(p, 3, colour.filled())))
-                .ok()?;
-        }
+            .draw_series(LineSeries::new(
+                s.points.iter().copied(),
+                colour.stroke_width(2),
+            ))
+            .ok()?
+            .label(s.label.clone())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], colour));
         chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .draw()
+            .draw_series(s.points.iter().map(|&p| Circle::new(p, 3, colour.filled())))
             .ok()?;
-        root.present().ok()?;
     }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .draw()
+        .ok()?;
+    root.present().ok()
+}
+
+/// An SVG line plot of `series`; `None` when there is no point to plot or no font.
+fn svg(title: &str, x_label: &str, y_label: &str, series: &[Series]) -> Option<String> {
+    // Plotters lays text out with the registered font's metrics, in SVG too.
+    font()?;
+    let mut out = String::new();
+    draw(
+        SVGBackend::with_string(&mut out, SIZE).into_drawing_area(),
+        title,
+        x_label,
+        y_label,
+        series,
+    )?;
     Some(out)
+}
+
+/// The same plot as PNG bytes; `None` when there is no point to plot or no font to draw the
+/// text with ([`font`]).
+fn png(title: &str, x_label: &str, y_label: &str, series: &[Series]) -> Option<Vec<u8>> {
+    font()?;
+    let mut rgb = vec![0u8; (SIZE.0 * SIZE.1 * 3) as usize];
+    draw(
+        BitMapBackend::with_buffer(&mut rgb, SIZE).into_drawing_area(),
+        title,
+        x_label,
+        y_label,
+        series,
+    )?;
+    let image = image::RgbImage::from_raw(SIZE.0, SIZE.1, rgb)?;
+    let mut out = std::io::Cursor::new(Vec::new());
+    image.write_to(&mut out, image::ImageFormat::Png).ok()?;
+    Some(out.into_inner())
 }

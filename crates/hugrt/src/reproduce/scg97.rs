@@ -15,7 +15,7 @@
 
 use super::Output;
 use super::havran::significant;
-use super::plot::{Series, svg};
+use super::plot::{Plot, Series};
 use super::published::Table;
 use crate::accel::{AnyAccel, BBI, GridLevelStats, PI, PIT, VT};
 use crate::bench::{Candidate, Workload, bench_scene};
@@ -340,7 +340,7 @@ pub(super) fn scg97_levels(o: &super::Options) -> Output {
     }
     report.push_str(&verdicts(&render, &times, &times_pub));
     // Plots: %pit per level, published and today, one per view.
-    let mut files = Vec::new();
+    let mut plots = Vec::new();
     for (view, about) in VIEWS {
         let mut series = Vec::new();
         for name in ["hug", "r50"] {
@@ -363,17 +363,17 @@ pub(super) fn scg97_levels(o: &super::Options) -> Output {
                 points: then,
             });
         }
-        let title = format!("%pit per level, {about}");
-        if let Some(plot) = svg(&title, "level from the top", "%pit", &series) {
-            files.push((
-                if view == "fig5" {
-                    "pit-levels-fig5.svg"
-                } else {
-                    "pit-levels-fig21.svg"
-                },
-                plot,
-            ));
-        }
+        plots.push(Plot {
+            stem: if view == "fig5" {
+                "pit-levels-fig5"
+            } else {
+                "pit-levels-fig21"
+            },
+            title: format!("%pit per level, {about}"),
+            x_label: "level from the top",
+            y_label: "%pit",
+            series,
+        });
     }
     let mut levels_csv = String::from(
         "structure,spec,level_from_top,grids,objects,cells,object_refs,grid_refs,pct_obj,pct_grids,pct_voxels,pct_ptrs,pct_vol,pct_o,mu_o_v,sigma_o_v,mu_o_v_nonempty,sigma_o_v_nonempty\n",
@@ -422,13 +422,15 @@ pub(super) fn scg97_levels(o: &super::Options) -> Output {
         "failed": failed,
     }))
     .expect("serialisable");
-    files.extend([
-        ("report.md", report),
-        ("levels.csv", levels_csv),
-        ("rendering.csv", render_csv),
-        ("data.json", json + "\n"),
-    ]);
-    Output { files }
+    Output {
+        files: vec![
+            ("report.md", report),
+            ("levels.csv", levels_csv),
+            ("rendering.csv", render_csv),
+            ("data.json", json + "\n"),
+        ],
+        plots,
+    }
 }
 
 /// A published cell as printed, or a dash where the paper has none.
@@ -772,15 +774,14 @@ pub(super) fn scg97_improved(o: &super::Options) -> Output {
             }
         }
     }
-    let mut files = Vec::new();
-    if let Some(plot) = svg(
-        "Render time against memory: the HUG's world grids and the recursive grid's MAXPs",
-        "MB",
-        "render ms",
-        &series,
-    ) {
-        files.push(("time-memory.svg", plot));
-    }
+    let plots = vec![Plot {
+        stem: "time-memory",
+        title: "Render time against memory: the HUG's world grids and the recursive grid's MAXPs"
+            .to_string(),
+        x_label: "MB",
+        y_label: "render ms",
+        series,
+    }];
     let mut csv = String::from("scene,structure,spec,render_ms,memory_mb\n");
     for r in &rows {
         let _ = writeln!(
@@ -800,10 +801,12 @@ pub(super) fn scg97_improved(o: &super::Options) -> Output {
         "failed": failed,
     }))
     .expect("serialisable");
-    files.extend([
-        ("report.md", report),
-        ("rows.csv", csv),
-        ("data.json", json + "\n"),
-    ]);
-    Output { files }
+    Output {
+        files: vec![
+            ("report.md", report),
+            ("rows.csv", csv),
+            ("data.json", json + "\n"),
+        ],
+        plots,
+    }
 }
