@@ -686,3 +686,92 @@ fn reproduce_havran_layouts_measures_the_cache_under_cachegrind() {
         assert!((share - n(hits)).abs() < 1e-6, "{rec:?}");
     }
 }
+
+/// Chromium where the machine has it (Debian's `chromium`; `.ci/run` installs it).
+fn chromium() -> Option<&'static str> {
+    ["chromium", "chromium-browser"].into_iter().find(|c| {
+        std::process::Command::new(c)
+            .arg("--version")
+            .output()
+            .is_ok_and(|o| o.status.success())
+    })
+}
+
+/// Opens `page` in headless Chromium with a script that records every failed load, script
+/// error, console error and image without pixels, and returns what it recorded ("ok" when
+/// nothing).
+fn check_in_chromium(browser: &str, page: &Path) -> String {
+    let html = std::fs::read_to_string(page).unwrap();
+    let probe = "<script>var problems=[];\
+        window.addEventListener('error',function(e){var t=e.target;\
+        problems.push(t&&t.src?'missing '+t.src:'error '+e.message);},true);\
+        var ce=console.error;console.error=function(){problems.push('console '+\
+        Array.prototype.join.call(arguments,' '));ce.apply(console,arguments);};\
+        window.addEventListener('load',function(){for(var i of document.images){\
+        if(!i.complete||i.naturalWidth===0)problems.push('broken '+i.src);}\
+        document.body.setAttribute('data-check',problems.length?problems.join('|'):'ok');});\
+        </script>";
+    let probed = page.with_file_name("probed.html");
+    std::fs::write(
+        &probed,
+        html.replacen("<head>", &format!("<head>\n{probe}"), 1),
+    )
+    .unwrap();
+    let profile = tempfile::tempdir().unwrap();
+    let o = std::process::Command::new(browser)
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--disable-quic",
+            "--no-first-run",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--disable-sync",
+            "--allow-file-access-from-files",
+            "--virtual-time-budget=10000",
+        ])
+        .arg(format!("--user-data-dir={}", profile.path().display()))
+        .arg("--dump-dom")
+        .arg(format!("file://{}", probed.display()))
+        .output()
+        .unwrap();
+    let dom = String::from_utf8_lossy(&o.stdout);
+    dom.split("data-check=\"")
+        .nth(1)
+        .and_then(|s| s.split('"').next())
+        .map_or_else(
+            || format!("no verdict from the page: {dom}"),
+            str::to_string,
+        )
+}
+
+#[test]
+fn reproduce_index_renders_in_chromium_with_every_image_and_no_error() {
+    let Some(browser) = chromium() else {
+        eprintln!("skipped: Chromium is not installed (Debian's package `chromium`)");
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().to_str().unwrap();
+    let o = hugrt(&[
+        "reproduce",
+        "eg95-kitchens",
+        "scg97-levels",
+        "scg97-improved",
+        "--quick",
+        "-o",
+        out,
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let index = dir.path().join("index.html");
+    assert!(std::fs::read_to_string(&index).unwrap().contains("<img"));
+    assert_eq!(check_in_chromium(browser, &index), "ok");
+    // The check can fail: a plot taken away is reported missing.
+    std::fs::remove_file(dir.path().join("scg97-improved/time-memory.svg")).unwrap();
+    let found = check_in_chromium(browser, &index);
+    assert!(
+        found.contains("time-memory.svg"),
+        "a missing image went unnoticed: {found}"
+    );
+}
