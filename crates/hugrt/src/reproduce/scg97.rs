@@ -579,7 +579,7 @@ fn verdicts(render: &[RenderLevelRow], times: &[TimeRow], published: &Table) -> 
 
 /// SCG97 §7.5's world-grid densities (cells per object of the world cluster) swept for the
 /// tuned HUG, and the recursive grid's MAXP swept for one that fits the HUG's memory.
-const WORLD_DENSITIES: &[&str] = &["1", "4", "16", "64", "256", "1024"];
+const WORLD_DENSITIES: &[&str] = &["1", "4", "16", "64", "256", "1000"];
 const MAXPS: &[usize] = &[50, 100, 200, 400, 800, 1600];
 
 #[derive(Clone, Debug, Serialize)]
@@ -808,5 +808,25 @@ pub(super) fn scg97_improved(o: &super::Options) -> Output {
             ("data.json", json + "\n"),
         ],
         plots,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{MAXPS, STRUCTURES, WORLD_DENSITIES};
+    use crate::accel::AnyAccel;
+
+    /// The full run's specs are valid, though only the quick run's are built in tests.
+    #[test]
+    fn every_swept_spec_is_valid() {
+        for w in WORLD_DENSITIES {
+            AnyAccel::check(&format!("hug:preset=scg97,world={w}")).unwrap();
+        }
+        for m in MAXPS {
+            AnyAccel::check(&format!("rgrid:preset=eg95,maxp={m}")).unwrap();
+        }
+        for (_, spec) in STRUCTURES {
+            AnyAccel::check(spec).unwrap();
+        }
     }
 }
