@@ -65,10 +65,15 @@ enum Command {
     /// Regenerate experiments of the papers: each target writes DIR/TARGET/ with a report
     /// (published beside measured, and a verdict), its data as CSV and JSON.
     ///
-    /// Targets: eg95-kitchens (EG95 Figs. 11-13, one kitchen and many kitchens, with SVG
-    /// plots), scg97-scenes (SCG97 Fig. 4, the test scenes' statistics), rtnews-spd (RTNews'
-    /// table of grids on the SPD scenes). `all` runs every target. DIR/index.html then links
-    /// every report in DIR and shows its plots.
+    /// Targets: eg95-kitchens (EG95 Figs. 11-13, one kitchen and many kitchens),
+    /// scg97-scenes (SCG97 Fig. 4, the test scenes' statistics), scg97-levels (SCG97 Figs.
+    /// 12-23, per-level resources, occupancy and rendering counters), scg97-improved (SCG97
+    /// 7.5, the tuned HUG against the recursive grid at equal memory), havran-splits (Havran
+    /// Tables 4-6, the SAH's planes and its gain over the mid-point split), havran-layouts
+    /// (Havran Tables 7-8, the kd-tree's layouts, under cachegrind where valgrind is
+    /// installed), rtnews-spd (RTNews' table of grids on the SPD scenes). `all` runs every
+    /// target. Plots are SVG and PNG. DIR/index.html then links every report in DIR and
+    /// shows its plots.
     Reproduce(ReproduceArgs),
     /// List the structures and the keys of their specs: what each key accepts, its default and
     /// what it does (`--json` for scripts).

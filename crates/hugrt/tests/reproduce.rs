@@ -214,3 +214,27 @@ fn havran_layouts_quick_times_every_layout_and_says_what_it_could_not_measure() 
     assert!(lines[4].contains("not judged"), "{report}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn scg97_scenes_plots_a_point_per_histogram_row() {
+    let (dir, out) = run("scg97-scenes", Path::new("no-such-folder"));
+    let rows = csv_rows(&read(&out, "histogram.csv"));
+    for plot in ["lengths-histogram.svg", "lengths-cumulative.svg"] {
+        assert_eq!(
+            read(&out, plot).matches("<circle").count(),
+            rows.len(),
+            "{plot}"
+        );
+    }
+    // Each scene's cumulative share ends at its share below a fifth of the longest.
+    let scenes = csv_rows(&read(&out, "scenes.csv"));
+    for s in &scenes {
+        let last = rows.iter().rfind(|r| r["scene"] == s["scene"]).unwrap();
+        let (a, b): (f64, f64) = (
+            last["cumulative_percent"].parse().unwrap(),
+            s["percent_below_0_2"].parse().unwrap(),
+        );
+        assert!((a - b).abs() < 1e-6, "{}: {a} against {b}", s["scene"]);
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}

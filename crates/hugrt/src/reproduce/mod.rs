@@ -341,7 +341,62 @@ fn scg97_scenes(o: &Options) -> Output {
             ("histogram.csv", hist),
             ("data.json", json + "\n"),
         ],
-        plots: Vec::new(),
+        plots: vec![
+            length_plot(
+                "lengths-histogram",
+                "Share of objects per 1% of the longest length (SCG97 Fig. 4)",
+                "% of objects",
+                &rows,
+                &histograms,
+                false,
+            ),
+            length_plot(
+                "lengths-cumulative",
+                "Cumulative share of objects by length (SCG97 Fig. 4)",
+                "cumulative % of objects",
+                &rows,
+                &histograms,
+                true,
+            ),
+        ],
+    }
+}
+
+/// SCG97 Fig. 4's length charts: a curve per scene over the bins' upper ends (fractions of
+/// the longest object), the share per bin or its running sum.
+fn length_plot(
+    stem: &'static str,
+    title: &str,
+    y_label: &'static str,
+    rows: &[SceneRow],
+    histograms: &[[f64; BINS]],
+    cumulative: bool,
+) -> plot::Plot {
+    let series = rows
+        .iter()
+        .zip(histograms)
+        .map(|(r, h)| {
+            let mut sum = 0.0;
+            plot::Series {
+                label: r.scene.clone(),
+                points: h
+                    .iter()
+                    .enumerate()
+                    .map(|(k, p)| {
+                        sum += p;
+                        let x = 0.2 * (k + 1) as f64 / BINS as f64;
+                        (x, if cumulative { sum } else { *p })
+                    })
+                    .collect(),
+            }
+        })
+        .collect();
+    plot::Plot {
+        stem,
+        title: title.to_string(),
+        x_label: "length over the longest",
+        y_label,
+        series,
     }
 }
 
