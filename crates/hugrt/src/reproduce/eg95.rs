@@ -16,6 +16,7 @@
 
 use super::Output;
 use super::plot::{Plot, Series};
+use super::published::Table;
 use crate::bench::{Candidate, Workload, bench_scene};
 use crate::scene::generate::generate;
 use serde::Serialize;
@@ -280,10 +281,8 @@ fn verdict(claim: &str, published: f64, shown: &str, measured: Option<f64>, why:
 /// One of EG95 §3.2's statements as a ratio of two structures' values at the largest scene
 /// of a set.
 struct Claim {
-    claim: &'static str,
-    published: f64,
-    /// How the published ratio is written, where it is not a number.
-    shown: Option<&'static str>,
+    /// Its row in `data/published/eg95-section3.2-claims.csv`: the statement and the ratio.
+    id: &'static str,
     set: &'static str,
     /// The structures whose values are divided, numerator first.
     over: (&'static str, &'static str),
@@ -293,37 +292,28 @@ struct Claim {
 
 const CLAIMS: &[Claim] = &[
     Claim {
-        claim: "\"MAXP=50 leads to a rendering time 3.5 times faster than MAXP=150\" (recursive grid, one kitchen)",
-        published: 3.5,
-        shown: None,
+        id: "maxp-time",
         set: "one kitchen",
         over: ("recGrid 150", "recGrid 50"),
         value: |r| r.render_ms,
         why: "recGrid 150's render time over recGrid 50's",
     },
     Claim {
-        claim: "\"MAXP=50 requires 30% more memory than MAXP=150\" (recursive grid, many kitchens)",
-        published: 1.3,
-        shown: None,
+        id: "maxp-memory",
         set: "many kitchens",
         over: ("recGrid 50", "recGrid 150"),
         value: |r| r.memory_mb,
         why: "recGrid 50's bytes over recGrid 150's",
     },
     Claim {
-        claim: "\"The HUG uses 40 MBytes and recGrid 50 uses 60 MBytes\" (the largest building)",
-        published: 60.0 / 40.0,
-        shown: None,
+        id: "hug-memory",
         set: "many kitchens",
         over: ("recGrid 50", "HUG (EG95)"),
         value: |r| r.memory_mb,
         why: "recGrid 50's bytes over the EG95 HUG's",
     },
     Claim {
-        claim: "\"The rendering times for octrees are worse than the other structures\" (many kitchens)",
-        // The paper gives no factor: "worse" is a ratio above 1.
-        published: TIE * TIE,
-        shown: Some("above 1 (no factor given)"),
+        id: "octree-time",
         set: "many kitchens",
         over: ("octree 50", "recGrid 50"),
         value: |r| r.render_ms,
@@ -347,14 +337,21 @@ fn verdicts(rows: &[Row]) -> String {
         "\n## Verdicts\n\nEach of EG95 §3.2's statements as a ratio, published and measured at \
          the largest scene of its set; a measured ratio within ×{TIE} of 1 is a tie.\n\n"
     );
+    let published = Table::load("eg95-section3.2-claims.csv");
     for c in CLAIMS {
         let measured = at_largest(c.set, c.over.0, c.value)
             .zip(at_largest(c.set, c.over.1, c.value))
             .map(|(a, b)| a / b);
-        let shown = c
-            .shown
-            .map_or(format!("{:.2}", c.published), str::to_string);
-        out += &verdict(c.claim, c.published, &shown, measured, c.why);
+        let row = published
+            .rows_where("id", c.id)
+            .next()
+            .expect("a claim's row");
+        // Where the paper gives no factor ("worse"), only the side of 1 counts.
+        let (ratio, shown) = match row.text("ratio") {
+            "" => (TIE * TIE, "above 1 (no factor given)".to_string()),
+            _ => (row.number("ratio"), format!("{:.2}", row.number("ratio"))),
+        };
+        out += &verdict(row.text("statement"), ratio, &shown, measured, c.why);
     }
     // "Running times between those of recGrid 50 and recGrid 150": scene by scene.
     let scenes: Vec<&str> = {

@@ -44,6 +44,10 @@ const FILES: &[(&str, &str)] = &[
         include_str!("../../data/published/rtnews-table.csv"),
     ),
     (
+        "eg95-section3.2-claims.csv",
+        include_str!("../../data/published/eg95-section3.2-claims.csv"),
+    ),
+    (
         "havran97-table4.csv",
         include_str!("../../data/published/havran97-table4.csv"),
     ),
