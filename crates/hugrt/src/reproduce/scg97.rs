@@ -338,7 +338,7 @@ pub(super) fn scg97_levels(o: &super::Options) -> Output {
             significant(t.pi_per_ray)
         );
     }
-    report.push_str(&verdicts(&render, &times, &times_pub));
+    report.push_str(&verdicts(&render, &times, &times_pub, &totals_pub));
     // Plots: %pit per level, published and today, one per view.
     let mut plots = Vec::new();
     for (view, about) in VIEWS {
@@ -441,7 +441,12 @@ fn cell(r: Option<super::published::Row>, col: &str) -> String {
 }
 
 /// SCG97 §6's statements, judged from the rows.
-fn verdicts(render: &[RenderLevelRow], times: &[TimeRow], published: &Table) -> String {
+fn verdicts(
+    render: &[RenderLevelRow],
+    times: &[TimeRow],
+    published: &Table,
+    totals: &Table,
+) -> String {
     let mut out = format!(
         "\n## Verdict\n\nThresholds: a ratio of times is a tie within ×{TIE}; \"most\" is over \
          50%; \"about 5 times slower\" holds from half that factor (2.5).\n\n"
@@ -567,10 +572,18 @@ fn verdicts(render: &[RenderLevelRow], times: &[TimeRow], published: &Table) -> 
         times.iter().find(|t| t.structure == "r50"),
     ) {
         let ratio = r.memory_bytes as f64 / h.memory_bytes.max(1) as f64;
+        let mb = |s: &str| {
+            totals
+                .rows_where("structure", s)
+                .next()
+                .map_or(f64::NAN, |t| t.number("megabytes"))
+        };
+        let (pr, ph) = (mb("r50"), mb("hug"));
         let _ = writeln!(
             out,
-            "- §5 and §7.5, the HUG needs less memory than the recursive grid (7.87 MB over \
-             4.00 MB published, 1.97): {} (r50 over the HUG: {ratio:.2}).",
+            "- §5 and §7.5, the HUG needs less memory than the recursive grid ({pr:.2} MB over \
+             {ph:.2} MB published, {:.2}): {} (r50 over the HUG: {ratio:.2}).",
+            pr / ph,
             judge(ratio)
         );
     }
