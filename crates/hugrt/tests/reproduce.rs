@@ -91,6 +91,10 @@ fn check_havran_splits(out: &Path, scenes: usize) {
         .filter(|l| ["holds", "does not hold"].iter().any(|w| l.contains(w)))
         .count();
     assert_eq!(judged, 4, "{report}");
+    // A plotted point per scene, published and today.
+    for plot in ["table4-outside-median.svg", "tables5-6-render-ratio.svg"] {
+        assert_eq!(read(out, plot).matches("<circle").count(), 2 * scenes, "{plot}");
+    }
     // Havran's fluid scenes are not available: said, not hidden.
     assert!(report.contains("fluid: not available"), "{report}");
 }
@@ -209,6 +213,9 @@ fn havran_layouts_quick_times_every_layout_and_says_what_it_could_not_measure() 
     assert_eq!(dfs["time_over_dfs"], "1");
     assert!(rows.iter().all(|r| r["d1_misses_per_ray"].is_empty()));
     assert!(report.contains("Cachegrind was not run"), "{report}");
+    // Havran's four representations and today's five layouts; no misses plot without them.
+    assert_eq!(read(&out, "table7-time.svg").matches("<circle").count(), 9);
+    assert!(!out.join("table7-misses.svg").exists());
     let lines = verdict_lines(&report);
     assert_eq!(lines.len(), 5, "{report}");
     assert!(lines[4].contains("not judged"), "{report}");

@@ -253,6 +253,7 @@ pub(super) fn eg95_kitchens(o: &super::Options) -> Output {
             x_label: "polygons",
             y_label: y,
             series,
+            categories: Vec::new(),
         });
     }
     Output {

@@ -12,6 +12,7 @@
 //! (Havran rendered his own images, size not given).
 
 use super::Output;
+use super::plot::{Plot, Series};
 use super::published::Table;
 use crate::bench::{BenchRow, Candidate, Workload, bench_scene};
 use crate::scene::Scene;
@@ -287,6 +288,67 @@ pub(super) fn havran_splits(o: &super::Options) -> Output {
             p.outside_percent
         );
     }
+    let scenes: Vec<String> = planes.iter().map(|p| p.scene.to_string()).collect();
+    let indexed = |f: &dyn Fn(&PlaneRow) -> f64| -> Vec<(f64, f64)> {
+        planes
+            .iter()
+            .enumerate()
+            .map(|(k, p)| (k as f64, f(p)))
+            .collect()
+    };
+    let ratio_of = |key: &str, published: bool| -> Vec<(f64, f64)> {
+        planes
+            .iter()
+            .enumerate()
+            .filter_map(|(k, p)| {
+                let row = properties
+                    .iter()
+                    .find(|q| q.scene == p.scene && q.property == key)?;
+                let r = if published {
+                    row.published_ratio()
+                } else {
+                    row.measured_ratio()?
+                };
+                Some((k as f64, r))
+            })
+            .collect()
+    };
+    let plots = vec![
+        Plot {
+            stem: "table4-outside-median",
+            title: "Havran Table 4: SAH planes outside the median interval".to_string(),
+            x_label: "scene",
+            y_label: "% of planes",
+            series: vec![
+                Series {
+                    label: "Havran 1997".into(),
+                    points: indexed(&|p| p.published_outside_percent),
+                },
+                Series {
+                    label: "today".into(),
+                    points: indexed(&|p| p.outside_percent),
+                },
+            ],
+            categories: scenes.clone(),
+        },
+        Plot {
+            stem: "tables5-6-render-ratio",
+            title: "Havran Tables 5-6: render time of SAH with cutting over mid-point".to_string(),
+            x_label: "scene",
+            y_label: "T_TR (2) / (1)",
+            series: vec![
+                Series {
+                    label: "Havran 1997".into(),
+                    points: ratio_of("t_tr_s", true),
+                },
+                Series {
+                    label: "today".into(),
+                    points: ratio_of("t_tr_s", false),
+                },
+            ],
+            categories: scenes,
+        },
+    ];
     let json = serde_json::to_string_pretty(&serde_json::json!({
         "target": "havran-splits",
         "image_side": side,
@@ -303,7 +365,7 @@ pub(super) fn havran_splits(o: &super::Options) -> Output {
             ("properties.csv", csv),
             ("data.json", json + "\n"),
         ],
-        plots: Vec::new(),
+        plots,
     }
 }
 
@@ -685,6 +747,54 @@ pub(super) fn havran_layouts(o: &super::Options) -> Output {
             cell(r.d1_hit_percent)
         );
     }
+    let names: Vec<String> = rows.iter().map(|r| r.layout.to_string()).collect();
+    let published_points: Vec<(f64, f64)> = rows
+        .iter()
+        .enumerate()
+        .filter_map(|(k, r)| {
+            let p = table7.rows_where("layout", r.layout).next()?;
+            Some((k as f64, p.number("t_a_simulated") / dfs_published))
+        })
+        .collect();
+    let mut plots = vec![Plot {
+        stem: "table7-time",
+        title: "Havran Table 7: traversal time over depth-first's, by layout".to_string(),
+        x_label: "layout",
+        y_label: "time / depth-first",
+        series: vec![
+            Series {
+                label: "Havran 1997 (simulated t'_A)".into(),
+                points: published_points,
+            },
+            Series {
+                label: "today".into(),
+                points: rows
+                    .iter()
+                    .enumerate()
+                    .map(|(k, r)| (k as f64, r.time_over_dfs))
+                    .collect(),
+            },
+        ],
+        categories: names.clone(),
+    }];
+    let misses: Vec<(f64, f64)> = rows
+        .iter()
+        .enumerate()
+        .filter_map(|(k, r)| Some((k as f64, r.d1_misses_per_ray?)))
+        .collect();
+    if !misses.is_empty() {
+        plots.push(Plot {
+            stem: "table7-misses",
+            title: "First-level data misses per ray with Havran's cache (cachegrind)".to_string(),
+            x_label: "layout",
+            y_label: "D1 misses per ray",
+            series: vec![Series {
+                label: "today".into(),
+                points: misses,
+            }],
+            categories: names,
+        });
+    }
     let json = serde_json::to_string_pretty(&serde_json::json!({
         "target": "havran-layouts",
         "scene": name,
@@ -700,7 +810,7 @@ pub(super) fn havran_layouts(o: &super::Options) -> Output {
             ("layouts.csv", csv),
             ("data.json", json + "\n"),
         ],
-        plots: Vec::new(),
+        plots,
     }
 }
 

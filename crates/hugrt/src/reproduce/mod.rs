@@ -348,6 +348,57 @@ fn rtnews_spd(o: &Options) -> Output {
             r.vt_per_ray
         );
     }
+    // Render time over the uniform grid's at D = 1, a curve per structure over the scenes,
+    // then and now.
+    let shown: Vec<&str> = RTNEWS_SCENES
+        .iter()
+        .copied()
+        .filter(|n| rows.iter().any(|r| r.scene == *n))
+        .collect();
+    let curves = |published: bool| -> Vec<plot::Series> {
+        table
+            .iter()
+            .map(|(label, _, _, _)| plot::Series {
+                label: label.clone(),
+                points: shown
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(k, n)| {
+                        let r = rows
+                            .iter()
+                            .find(|r| r.scene == *n && r.structure == *label)?;
+                        Some((
+                            k as f64,
+                            if published {
+                                r.published_over_d1
+                            } else {
+                                r.measured_over_d1
+                            },
+                        ))
+                    })
+                    .collect(),
+            })
+            .collect()
+    };
+    let categories: Vec<String> = shown.iter().map(|s| s.to_string()).collect();
+    let plots = vec![
+        plot::Plot {
+            stem: "render-over-d1-published",
+            title: "RTNews: render time over the uniform grid's at D = 1 (1999)".to_string(),
+            x_label: "SPD scene",
+            y_label: "T_TR / D=1",
+            series: curves(true),
+            categories: categories.clone(),
+        },
+        plot::Plot {
+            stem: "render-over-d1-today",
+            title: "Render time over the uniform grid's at D = 1 (today)".to_string(),
+            x_label: "SPD scene",
+            y_label: "render / D=1",
+            series: curves(false),
+            categories,
+        },
+    ];
     let json = serde_json::to_string_pretty(&serde_json::json!({
         "target": "rtnews-spd",
         "image_side": side,
@@ -361,6 +412,6 @@ fn rtnews_spd(o: &Options) -> Output {
             ("rows.csv", csv),
             ("data.json", json + "\n"),
         ],
-        plots: Vec::new(),
+        plots,
     }
 }

@@ -23,16 +23,18 @@ pub(super) struct Plot {
     pub x_label: &'static str,
     pub y_label: &'static str,
     pub series: Vec<Series>,
+    /// Names for x = 0, 1, 2, ... where the x axis is categorical (scenes, layouts); empty
+    /// for a numeric axis.
+    pub categories: Vec<String>,
 }
 
 impl Plot {
     /// The plot's files: SVG, then PNG where a font is at hand; none without a point.
     pub fn render(&self) -> Vec<(String, Vec<u8>)> {
-        let (t, x, y, s) = (&self.title, self.x_label, self.y_label, &self.series);
         let mut out = Vec::new();
-        if let Some(text) = svg(t, x, y, s) {
+        if let Some(text) = svg(self) {
             out.push((format!("{}.svg", self.stem), text.into_bytes()));
-            if let Some(bytes) = png(t, x, y, s) {
+            if let Some(bytes) = png(self) {
                 out.push((format!("{}.png", self.stem), bytes));
             }
         }
@@ -86,14 +88,23 @@ fn ranges(series: &[Series]) -> Option<((f64, f64), f64)> {
     Some((x, if y1 > 0.0 { y1 * 1.05 } else { 1.0 }))
 }
 
-fn draw<DB: DrawingBackend>(
-    root: DrawingArea<DB, Shift>,
-    title: &str,
-    x_label: &str,
-    y_label: &str,
-    series: &[Series],
-) -> Option<()> {
+fn draw<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, plot: &Plot) -> Option<()> {
+    let (title, series) = (&plot.title, &plot.series);
     let ((x0, x1), y1) = ranges(series)?;
+    // A categorical axis gets half a step of room either side of its first and last name.
+    let (x0, x1) = if plot.categories.is_empty() {
+        (x0, x1)
+    } else {
+        (-0.5, plot.categories.len() as f64 - 0.5)
+    };
+    let name = |x: &f64| {
+        let k = x.round();
+        if (x - k).abs() < 1e-6 && k >= 0.0 {
+            plot.categories.get(k as usize).cloned().unwrap_or_default()
+        } else {
+            String::new()
+        }
+    };
     root.fill(&WHITE).ok()?;
     let mut chart = ChartBuilder::on(&root)
         .caption(title, ("sans-serif", 20))
@@ -102,12 +113,14 @@ fn draw<DB: DrawingBackend>(
         .y_label_area_size(60)
         .build_cartesian_2d(x0..x1, 0.0..y1)
         .ok()?;
-    chart
-        .configure_mesh()
-        .x_desc(x_label)
-        .y_desc(y_label)
-        .draw()
-        .ok()?;
+    let mut mesh = chart.configure_mesh();
+    mesh.x_desc(plot.x_label).y_desc(plot.y_label);
+    if !plot.categories.is_empty() {
+        mesh.x_labels(plot.categories.len() + 1)
+            .x_label_formatter(&name)
+            .disable_x_mesh();
+    }
+    mesh.draw().ok()?;
     for (k, s) in series.iter().enumerate() {
         let colour = Palette99::pick(k).to_rgba();
         chart
@@ -132,31 +145,25 @@ fn draw<DB: DrawingBackend>(
 }
 
 /// An SVG line plot of `series`; `None` when there is no point to plot or no font.
-fn svg(title: &str, x_label: &str, y_label: &str, series: &[Series]) -> Option<String> {
+fn svg(plot: &Plot) -> Option<String> {
     // Plotters lays text out with the registered font's metrics, in SVG too.
     font()?;
     let mut out = String::new();
     draw(
         SVGBackend::with_string(&mut out, SIZE).into_drawing_area(),
-        title,
-        x_label,
-        y_label,
-        series,
+        plot,
     )?;
     Some(out)
 }
 
 /// The same plot as PNG bytes; `None` when there is no point to plot or no font to draw the
 /// text with ([`font`]).
-fn png(title: &str, x_label: &str, y_label: &str, series: &[Series]) -> Option<Vec<u8>> {
+fn png(plot: &Plot) -> Option<Vec<u8>> {
     font()?;
     let mut rgb = vec![0u8; (SIZE.0 * SIZE.1 * 3) as usize];
     draw(
         BitMapBackend::with_buffer(&mut rgb, SIZE).into_drawing_area(),
-        title,
-        x_label,
-        y_label,
-        series,
+        plot,
     )?;
     let image = image::RgbImage::from_raw(SIZE.0, SIZE.1, rgb)?;
     let mut out = std::io::Cursor::new(Vec::new());

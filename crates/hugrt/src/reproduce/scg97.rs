@@ -374,6 +374,7 @@ pub(super) fn scg97_levels(o: &super::Options) -> Output {
             x_label: "level from the top",
             y_label: "%pit",
             series,
+            categories: Vec::new(),
         });
     }
     let mut levels_csv = String::from(
@@ -795,6 +796,7 @@ pub(super) fn scg97_improved(o: &super::Options) -> Output {
         x_label: "MB",
         y_label: "render ms",
         series,
+        categories: Vec::new(),
     }];
     let mut csv = String::from("scene,structure,spec,render_ms,memory_mb\n");
     for r in &rows {
@@ -1054,6 +1056,7 @@ fn length_plot(
         x_label: "length over the longest",
         y_label,
         series,
+        categories: Vec::new(),
     }
 }
 
