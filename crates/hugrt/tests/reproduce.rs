@@ -93,7 +93,11 @@ fn check_havran_splits(out: &Path, scenes: usize) {
     assert_eq!(judged, 4, "{report}");
     // A plotted point per scene, published and today.
     for plot in ["table4-outside-median.svg", "tables5-6-render-ratio.svg"] {
-        assert_eq!(read(out, plot).matches("<circle").count(), 2 * scenes, "{plot}");
+        assert_eq!(
+            read(out, plot).matches("<circle").count(),
+            2 * scenes,
+            "{plot}"
+        );
     }
     // Havran's fluid scenes are not available: said, not hidden.
     assert!(report.contains("fluid: not available"), "{report}");
