@@ -214,7 +214,7 @@ fn havran_layouts_quick_times_every_layout_and_says_what_it_could_not_measure() 
     let rows = csv_rows(&read(&out, "layouts.csv"));
     assert_eq!(rows.len(), 5, "{report}");
     let dfs = rows.iter().find(|r| r["layout"] == "depth-first").unwrap();
-    assert_eq!(dfs["time_over_dfs"], "1");
+    assert_eq!(dfs["time_over_dfs"].parse::<f64>().unwrap(), 1.0);
     assert!(rows.iter().all(|r| r["d1_misses_per_ray"].is_empty()));
     assert!(report.contains("Cachegrind was not run"), "{report}");
     // Havran's four representations and today's five layouts; no misses plot without them.

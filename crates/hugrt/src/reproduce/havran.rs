@@ -202,14 +202,7 @@ pub(super) fn havran_splits(o: &super::Options) -> Output {
         table4.file,
         tables56.file,
     );
-    if !skipped.is_empty() {
-        let _ = writeln!(
-            report,
-            "Skipped: {}. The SPD scenes ship in the project's shared folder; `--spd-dir` says \
-             where.\n",
-            skipped.join("; ")
-        );
-    }
+    report.push_str(&super::skipped_scenes(&skipped));
     let _ = writeln!(
         report,
         "## Table 4: planes outside the median interval\n\n| scene | stand-in | planes \
@@ -273,21 +266,7 @@ pub(super) fn havran_splits(o: &super::Options) -> Output {
             opt(p.measured_ratio())
         );
     }
-    let mut planes_csv = String::from(
-        "scene,stand_in,published_planes,published_outside_percent,planes,outside_percent\n",
-    );
-    for p in &planes {
-        let _ = writeln!(
-            planes_csv,
-            "{},{},{},{},{},{}",
-            p.scene,
-            p.stand_in,
-            p.published_planes,
-            p.published_outside_percent,
-            p.planes,
-            p.outside_percent
-        );
-    }
+    let planes_csv = super::csv_of(&planes);
     let scenes: Vec<String> = planes.iter().map(|p| p.scene.to_string()).collect();
     let indexed = |f: &dyn Fn(&PlaneRow) -> f64| -> Vec<(f64, f64)> {
         planes
@@ -728,25 +707,7 @@ pub(super) fn havran_layouts(o: &super::Options) -> Output {
         );
     }
     report.push_str(&layout_verdicts(&rows));
-    let mut csv = String::from(
-        "layout,spec,trace_ms,mrays_per_s,memory_bytes,time_over_dfs,data_refs_per_ray,d1_misses_per_ray,d1_hit_percent\n",
-    );
-    let cell = |x: Option<f64>| x.map_or(String::new(), |x| x.to_string());
-    for r in &rows {
-        let _ = writeln!(
-            csv,
-            "{},{},{},{},{},{},{},{},{}",
-            r.layout,
-            r.spec.replace(',', ";"),
-            r.trace_ms,
-            r.mrays_per_s,
-            r.memory_bytes,
-            r.time_over_dfs,
-            cell(r.data_refs_per_ray),
-            cell(r.d1_misses_per_ray),
-            cell(r.d1_hit_percent)
-        );
-    }
+    let csv = super::csv_of(&rows);
     let names: Vec<String> = rows.iter().map(|r| r.layout.to_string()).collect();
     let published_points: Vec<(f64, f64)> = rows
         .iter()

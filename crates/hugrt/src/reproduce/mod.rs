@@ -12,6 +12,7 @@ mod published;
 mod rtnews;
 mod scg97;
 
+use serde::Serialize;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -122,6 +123,28 @@ pub fn run(name: &str, options: &Options, dir: &Path) -> Result<PathBuf, Reprodu
         std::fs::write(&path, bytes).map_err(|e| ReproduceError::Write(path.clone(), e))?;
     }
     Ok(out)
+}
+
+/// `rows` as CSV, the header from the fields' names (the `csv` crate quotes a field that
+/// holds a comma, such as a spec).
+fn csv_of<T: Serialize>(rows: &[T]) -> String {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    for r in rows {
+        w.serialize(r).expect("a flat row serialises");
+    }
+    String::from_utf8(w.into_inner().expect("in memory")).expect("UTF-8 fields")
+}
+
+/// The report's paragraph on the SPD scenes a target could not read, empty when none.
+fn skipped_scenes(skipped: &[String]) -> String {
+    if skipped.is_empty() {
+        return String::new();
+    }
+    format!(
+        "Skipped: {}. The SPD scenes ship in the project's shared folder; `--spd-dir` says \
+         where.\n\n",
+        skipped.join("; ")
+    )
 }
 
 /// Writes `dir/index.html`: a section per target folder found in `dir` (in [`TARGETS`]' order),

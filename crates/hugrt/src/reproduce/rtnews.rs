@@ -114,14 +114,7 @@ pub(super) fn rtnews_spd(o: &super::Options) -> Output {
             });
         }
     }
-    if !missing.is_empty() {
-        let _ = writeln!(
-            report,
-            "Skipped: {}. The SPD scenes ship in the project's shared folder; `--spd-dir` says \
-             where.\n",
-            missing.join("; ")
-        );
-    }
+    report.push_str(&super::skipped_scenes(&missing));
     let _ = writeln!(
         report,
         "| scene | structure | published T_TR / D=1 | today / D=1 | build ms | render ms | #pit | #vt |"
@@ -168,26 +161,7 @@ pub(super) fn rtnews_spd(o: &super::Options) -> Output {
          {scenes} scenes.\n\n{lines}\nOne run per structure on a shared machine: ratios within \
          ±20% are noise here.\n"
     );
-    let mut csv = String::from(
-        "scene,structure,spec,published_build_s,published_render_s,published_over_d1,build_ms,render_ms,measured_over_d1,pit_per_ray,vt_per_ray\n",
-    );
-    for r in &rows {
-        let _ = writeln!(
-            csv,
-            "{},{},{},{},{},{},{},{},{},{},{}",
-            r.scene,
-            r.structure.replace(',', ";"),
-            r.spec.replace(',', ";"),
-            r.published_build_s,
-            r.published_render_s,
-            r.published_over_d1,
-            r.build_ms,
-            r.render_ms,
-            r.measured_over_d1,
-            r.pit_per_ray,
-            r.vt_per_ray
-        );
-    }
+    let csv = super::csv_of(&rows);
     // Render time over the uniform grid's at D = 1, a curve per structure over the scenes,
     // then and now.
     let shown: Vec<&str> = RTNEWS_SCENES

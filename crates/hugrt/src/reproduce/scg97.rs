@@ -405,15 +405,7 @@ pub(super) fn scg97_levels(o: &super::Options) -> Output {
             s.sigma_o_v_nonempty
         );
     }
-    let mut render_csv =
-        String::from("view,structure,level_from_top,pct_pit,pct_pi,pct_bbi,pct_vt\n");
-    for r in &render {
-        let _ = writeln!(
-            render_csv,
-            "{},{},{},{},{},{},{}",
-            r.view, r.structure, r.from_top, r.pct_pit, r.pct_pi, r.pct_bbi, r.pct_vt
-        );
-    }
+    let render_csv = super::csv_of(&render);
     let json = serde_json::to_string_pretty(&serde_json::json!({
         "target": "scg97-levels",
         "scene": format!("builtin:kitchen:{size}"),
@@ -798,18 +790,7 @@ pub(super) fn scg97_improved(o: &super::Options) -> Output {
         series,
         categories: Vec::new(),
     }];
-    let mut csv = String::from("scene,structure,spec,render_ms,memory_mb\n");
-    for r in &rows {
-        let _ = writeln!(
-            csv,
-            "{},{},{},{},{}",
-            r.scene,
-            r.structure,
-            r.spec.replace(',', ";"),
-            r.render_ms,
-            r.memory_mb
-        );
-    }
+    let csv = super::csv_of(&rows);
     let json = serde_json::to_string_pretty(&serde_json::json!({
         "target": "scg97-improved",
         "image_side": side,
@@ -951,14 +932,7 @@ pub(super) fn scg97_scenes(o: &super::Options) -> Output {
         "The length distributions (share of objects per 1% of the longest length, up to 20%, \
          as SCG97's charts) are in `histogram.csv`, with their cumulative sums.\n"
     );
-    let mut csv = String::from("scene,objects,min_over_max,min_over_diag,percent_below_0_2\n");
-    for r in &rows {
-        let _ = writeln!(
-            csv,
-            "{},{},{:e},{:e},{}",
-            r.scene, r.objects, r.min_over_max, r.min_over_diag, r.percent_below_0_2
-        );
-    }
+    let csv = super::csv_of(&rows);
     let mut hist = String::from("scene,bin_low,bin_high,percent,cumulative_percent\n");
     for (r, h) in rows.iter().zip(&histograms) {
         let mut cumulative = 0.0;
