@@ -16,6 +16,8 @@ pub mod accel;
 pub mod batch;
 pub mod bench;
 mod error;
+#[doc(hidden)]
+pub mod fuzzing;
 pub mod geometry;
 pub mod render;
 pub mod reproduce;

@@ -1,0 +1,125 @@
+//! The bodies of the fuzz targets in `fuzz/` (cargo-fuzz, libFuzzer), kept in the library so
+//! that `tests/fuzz_corpus.rs` replays the kept corpus and every crash found on the stable
+//! toolchain, through the same code. Each function panics only where hugrt is wrong: a loader
+//! that panics, a loaded scene with a non-finite coordinate, or a structure whose closest
+//! hits differ from brute force's.
+
+use crate::accel::{AnyAccel, NoCounters};
+use crate::batch::{camera_rays, decode_rays, incoherent_rays};
+use crate::geometry::{Ray, Shape, Vec3};
+use crate::scene::Scene;
+
+/// Structures a loaded scene is built into and checked against brute force: the HUG (the
+/// product), the bvh (the fastest) and the uniform grid (the simplest walk).
+const CHECKED: &[&str] = &["hug", "bvh", "grid"];
+
+/// Scenes larger than this are only loaded, not built: the fuzzer's time goes to the parsers.
+const MAX_CHECKED_PRIMITIVES: usize = 2_000;
+
+/// Loads `data` as the file `name` (its extension picks the format) and, when it loads,
+/// checks the scene and the structures built over it.
+pub fn scene_file(name: &str, data: &[u8]) {
+    let Ok(scene) = Scene::from_bytes(name, data) else {
+        return;
+    };
+    for (i, s) in scene.shapes.iter().enumerate() {
+        let b = s.bounds();
+        assert!(
+            b.is_empty() || (b.min.is_finite() && b.max.is_finite()),
+            "primitive {i} has a non-finite bound: {s:?}"
+        );
+    }
+    if scene.shapes.len() > MAX_CHECKED_PRIMITIVES {
+        return;
+    }
+    let b = scene.bounds();
+    if b.is_empty() {
+        return;
+    }
+    let mut rays = camera_rays(&b, 8, 8);
+    rays.extend(incoherent_rays(&b, 64, 1));
+    check_structures(&scene, &rays);
+}
+
+/// Decodes `data` as a rays file and traces it through every checked structure of a small
+/// fixed scene, comparing with brute force: rays of any bit pattern (NaN, infinite, zero
+/// directions, reversed intervals) must be answered, never panic or hang.
+pub fn rays_file(data: &[u8]) {
+    let Ok(rays) = decode_rays(data) else {
+        return;
+    };
+    check_structures(&fixture(), &rays);
+}
+
+/// Twelve triangles of a unit cube with a sphere and a sliver inside: shared edges, a curved
+/// primitive and a needle.
+fn fixture() -> Scene {
+    let corner = |i: u32| Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, (i >> 2) as f32);
+    let faces = [
+        [0, 2, 6, 4],
+        [1, 3, 7, 5],
+        [0, 1, 5, 4],
+        [2, 3, 7, 6],
+        [0, 1, 3, 2],
+        [4, 5, 7, 6],
+    ];
+    let mut tris = Vec::new();
+    for q in faces.map(|q| q.map(corner)) {
+        tris.push([q[0], q[1], q[2]]);
+        tris.push([q[0], q[2], q[3]]);
+    }
+    tris.push([
+        Vec3::new(0.1, 0.5, 0.5),
+        Vec3::new(0.9, 0.5, 0.5),
+        Vec3::new(0.9, 0.5000001, 0.5),
+    ]);
+    let mut scene = Scene::from_triangles(tris);
+    scene.shapes.push(Shape::Sphere(crate::geometry::Sphere {
+        center: Vec3::splat(0.5),
+        radius: 0.25,
+    }));
+    scene
+}
+
+fn check_structures(scene: &Scene, rays: &[Ray]) {
+    let brute = AnyAccel::build(scene, "brute").expect("brute force builds");
+    for spec in CHECKED {
+        let accel = AnyAccel::build(scene, spec).expect("a default spec builds");
+        for (k, ray) in rays.iter().enumerate() {
+            let want = brute.closest_hit(scene, ray, &mut NoCounters);
+            let got = accel.closest_hit(scene, ray, &mut NoCounters);
+            let same = match (want, got) {
+                (None, None) => true,
+                (Some(w), Some(g)) => w.prim == g.prim || w.t == g.t,
+                _ => false,
+            };
+            assert!(
+                same,
+                "{spec}: ray {k} {ray:?}: brute force {want:?}, {spec} {got:?}"
+            );
+            let any = accel.any_hit(scene, ray, &mut NoCounters).is_some();
+            assert_eq!(any, want.is_some(), "{spec}: any-hit of ray {k} {ray:?}");
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::Aabb;
+
+    /// Every ray from inside the fixture's cube hits it: the cube is closed, so the rays-file
+    /// target's misses come from the rays, not from a gap.
+    #[test]
+    fn the_fixture_is_a_closed_cube() {
+        let scene = fixture();
+        assert_eq!(scene.shapes.len(), 14);
+        let b = scene.bounds();
+        assert_eq!((b.min, b.max), (Vec3::ZERO, Vec3::ONE));
+        let brute = AnyAccel::build(&scene, "brute").unwrap();
+        let inside = Aabb::new(Vec3::splat(0.01), Vec3::splat(0.99));
+        for ray in incoherent_rays(&inside, 1000, 3) {
+            assert!(brute.closest_hit(&scene, &ray, &mut NoCounters).is_some());
+        }
+    }
+}
