@@ -68,9 +68,18 @@ impl Cone {
             };
             (t0.min(t1), t0.max(t1))
         };
+        // A root must also lie on the surface: where the quadratic's coefficients cancel (a
+        // cone nearly flat and far from the ray's origin, as a fuzzed scene had), a root can
+        // be off by more than the cone's height and land in `0..=h` while its point lies far
+        // outside the cone and its box, a hit no structure would find.
+        let scale = 1e-12 * (q.length() + h + rb.abs());
         let valid = |t: f64| {
             let s = qw + t * dw;
-            (0.0..=h).contains(&s) && rb + k * s >= 0.0
+            let radius = rb + k * s;
+            let radial = (qp + t * dp).length();
+            (0.0..=h).contains(&s)
+                && radius >= 0.0
+                && (radial - radius).abs() <= 1e-6 * (radial + radius) + scale
         };
         let (t0, t1) = roots;
         let t0v = if valid(t0) { t0 } else { f64::NAN };
