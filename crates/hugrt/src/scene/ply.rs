@@ -79,6 +79,7 @@ pub fn parse(path: &str, data: &[u8]) -> Result<Scene, SceneError> {
     let header = Parser::<Skip>::new()
         .read_header(&mut reader)
         .map_err(ply_err)?;
+    check_counts(path, data, &header)?;
     let mut vertices: Option<Vec<Vertex>> = None;
     let mut faces: Option<Vec<Face>> = None;
     for (name, def) in header.elements.iter() {
@@ -149,4 +150,53 @@ pub fn parse(path: &str, data: &[u8]) -> Result<Scene, SceneError> {
         return Err(SceneError::invalid(path, "PLY: more than 2^32-2 triangles"));
     }
     Ok(Scene::from_triangles(triangles))
+}
+
+/// Refuses a header whose element counts the data cannot hold, before the parser reads them:
+/// each element takes at least its scalars' bytes (binary) or two characters a property (text),
+/// and at least one byte however empty it is declared. Without this, `element vertex 10^11`
+/// over a few bytes of payload had the parser collect elements until memory ran out (found by
+/// the ply fuzz target).
+fn check_counts(
+    path: &str,
+    data: &[u8],
+    header: &ply_rs_bw::ply::Header,
+) -> Result<(), SceneError> {
+    use ply_rs_bw::ply::{Encoding, PropertyType, ScalarType};
+    let size = |t: &ScalarType| match t {
+        ScalarType::Char | ScalarType::UChar => 1u64,
+        ScalarType::Short | ScalarType::UShort => 2,
+        ScalarType::Int | ScalarType::UInt | ScalarType::Float => 4,
+        ScalarType::Double => 8,
+    };
+    let end = data
+        .windows(10)
+        .position(|w| w == b"end_header")
+        .map_or(0, |p| p + 10);
+    let payload = (data.len() - end) as u64;
+    let mut need = 0u64;
+    for (name, def) in header.elements.iter() {
+        let per = match header.encoding {
+            Encoding::Ascii => 2 * def.properties.len() as u64,
+            _ => def
+                .properties
+                .values()
+                .map(|p| match &p.data_type {
+                    PropertyType::Scalar(t) => size(t),
+                    PropertyType::List(count, _) => size(count),
+                })
+                .sum(),
+        };
+        need = need.saturating_add((def.count as u64).saturating_mul(per.max(1)));
+        if need > payload {
+            return Err(SceneError::invalid(
+                path,
+                format!(
+                    "PLY: element '{name}' declares {} elements, more than the {payload} bytes after the header can hold",
+                    def.count
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
