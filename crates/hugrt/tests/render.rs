@@ -5,7 +5,8 @@ mod common;
 
 use hugrt::accel::AnyAccel;
 use hugrt::render::{
-    RenderSettings, Rendered, SoftShadows, render, render_recorded, render_replayed, render_soft,
+    RenderSettings, Rendered, SoftShadows, render, render_recorded, render_replayed, render_rows,
+    render_soft,
 };
 use hugrt::scene::{Scene, procedural::clustered_room};
 
@@ -163,4 +164,33 @@ fn replayed_rendering_is_the_same_image() {
     assert_eq!(replayed.counts, recorded.counts);
     assert!(replayed.image == recorded.image);
     assert!(replayed.image == draw(&s, "hug", 48, 32).image);
+}
+
+/// Bands of rows rendered apart ([`render_rows`]) are those rows of the whole image, pixel for
+/// pixel and in radiance, and the radiance quantised is the image.
+#[test]
+fn bands_of_rows_are_the_whole_images_rows() {
+    let scene = fixture();
+    let accel = AnyAccel::build(&scene, "hug").unwrap();
+    let settings = RenderSettings {
+        width: 37,
+        height: 29,
+        depth: 4,
+        counters: false,
+    };
+    let whole = render(&scene, &accel, &settings, &|_| {});
+    assert_eq!(whole.radiance.len(), 37 * 29);
+    let mut radiance = Vec::new();
+    let mut pixels = Vec::new();
+    for y in (0..29).step_by(6) {
+        let band = render_rows(&scene, &accel, &settings, y..(y + 6).min(29), &|_| {});
+        assert_eq!(band.image.height(), (y + 6).min(29) - y);
+        radiance.extend(band.radiance);
+        pixels.extend_from_slice(band.image.as_raw());
+    }
+    assert_eq!(radiance, whole.radiance);
+    assert_eq!(pixels, whole.image.as_raw().to_vec());
+    let q = |v: f32| (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8;
+    let c = whole.radiance[5 * 37 + 11];
+    assert_eq!(whole.image.get_pixel(11, 5).0, [q(c.x), q(c.y), q(c.z)]);
 }

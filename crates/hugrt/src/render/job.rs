@@ -102,9 +102,14 @@ impl RenderJob {
         check_image(Some(settings.width), Some(settings.height), None)?;
         let total = settings.height as u64 + 1;
         let t = Instant::now();
-        let out = render_impl(&scene, &accel, soft.as_ref(), &settings, &|n| {
-            progress(n, total)
-        });
+        let out = render_impl(
+            &scene,
+            &accel,
+            soft.as_ref(),
+            &settings,
+            0..settings.height.max(1),
+            &|n| progress(n, total),
+        );
         let render_seconds = t.elapsed().as_secs_f64();
         let report = RenderReport {
             counts: out.counts,

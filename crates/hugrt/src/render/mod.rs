@@ -104,7 +104,11 @@ impl RayCounts {
 }
 
 pub struct Rendered {
+    /// The image, each channel clamped to `[0, 1]` and quantised.
     pub image: image::RgbImage,
+    /// The same pixels before clamping, row by row from the top: the radiance an EXR file
+    /// keeps.
+    pub radiance: Vec<Vec3>,
     pub counts: RayCounts,
     /// Traversal counters, when [`RenderSettings::counters`] was set.
     pub counters: Option<RayCounters>,
@@ -118,7 +122,35 @@ pub fn render(
     settings: &RenderSettings,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Rendered {
-    render_impl(scene, accel, None, settings, progress)
+    render_impl(
+        scene,
+        accel,
+        None,
+        settings,
+        0..settings.height.max(1),
+        progress,
+    )
+}
+
+/// Renders only the pixel rows `rows` of the image [`render`] makes (its rows `rows.start`
+/// to `rows.end - 1`, counted from the top), pixel for pixel the same: a tile of a large image
+/// rendered apart, on another thread or machine. The image is `width × rows.len()`.
+///
+/// # Panics
+/// When `rows` is empty or goes past the image's height.
+pub fn render_rows(
+    scene: &Scene,
+    accel: &AnyAccel,
+    settings: &RenderSettings,
+    rows: std::ops::Range<u32>,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Rendered {
+    assert!(
+        rows.start < rows.end && rows.end <= settings.height.max(1),
+        "rows {rows:?} of an image {} high",
+        settings.height.max(1)
+    );
+    render_impl(scene, accel, None, settings, rows, progress)
 }
 
 /// Renders `scene` through `accel` with soft shadows answered by `soft` (built for the same
@@ -130,7 +162,14 @@ pub fn render_soft(
     settings: &RenderSettings,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Rendered {
-    render_impl(scene, accel, Some(soft), settings, progress)
+    render_impl(
+        scene,
+        accel,
+        Some(soft),
+        settings,
+        0..settings.height.max(1),
+        progress,
+    )
 }
 
 fn render_impl(
@@ -138,13 +177,14 @@ fn render_impl(
     accel: &AnyAccel,
     soft: Option<&SoftShadows>,
     settings: &RenderSettings,
+    rows: std::ops::Range<u32>,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Rendered {
     let live = |_| Live { accel, soft };
     let (rendered, _) = if settings.counters {
-        render_with::<RayCounters, _>(scene, settings, &live, progress)
+        render_with::<RayCounters, _>(scene, settings, rows, &live, progress)
     } else {
-        render_with::<NoCounters, _>(scene, settings, &live, progress)
+        render_with::<NoCounters, _>(scene, settings, rows, &live, progress)
     };
     rendered
 }
@@ -180,10 +220,11 @@ pub fn render_recorded(
         live: Live { accel, soft },
         answers: Answers::default(),
     };
+    let all = 0..settings.height.max(1);
     let (rendered, rows) = if settings.counters {
-        render_with::<RayCounters, _>(scene, settings, &record, &|_| {})
+        render_with::<RayCounters, _>(scene, settings, all, &record, &|_| {})
     } else {
-        render_with::<NoCounters, _>(scene, settings, &record, &|_| {})
+        render_with::<NoCounters, _>(scene, settings, all, &record, &|_| {})
     };
     let rows = rows.into_iter().map(|r| r.answers).collect();
     (rendered, Recording { rows })
@@ -210,7 +251,8 @@ pub fn render_replayed(
         counters: false,
         ..*settings
     };
-    render_with::<NoCounters, _>(scene, &settings, &replay, &|_| {}).0
+    let all = 0..settings.height.max(1);
+    render_with::<NoCounters, _>(scene, &settings, all, &replay, &|_| {}).0
 }
 
 trait Summable: Counters + Default + Send + Copy {
@@ -335,11 +377,13 @@ struct Tracer<'a, C, Q> {
     counters: C,
 }
 
-/// The rendering itself; `queries(j)` makes the query source of corner row `j`, and the
-/// sources come back with the image, row by row.
+/// The rendering itself, of the pixel rows `pixel_rows`; `queries(j)` makes the query source
+/// of corner row `j` (counted from the image's top), and the sources come back with the image,
+/// row by row.
 fn render_with<C: Summable, Q: Queries>(
     scene: &Scene,
     s: &RenderSettings,
+    pixel_rows: std::ops::Range<u32>,
     queries: &(dyn Fn(usize) -> Q + Sync),
     progress: &(dyn Fn(u64) + Sync),
 ) -> (Rendered, Vec<Q>) {
@@ -356,7 +400,7 @@ fn render_with<C: Summable, Q: Queries>(
     } else {
         1e-5 * b.diagonal().max(1e-6)
     };
-    let rows: Vec<(Vec<Vec3>, RayCounts, C, Q)> = (0..=h)
+    let rows: Vec<(Vec<Vec3>, RayCounts, C, Q)> = (pixel_rows.start..=pixel_rows.end)
         .into_par_iter()
         .map(|j| {
             let mut t = Tracer {
@@ -386,14 +430,21 @@ fn render_with<C: Summable, Q: Queries>(
         counts.add(c);
         counters.sum(k);
     }
-    let image = image::RgbImage::from_fn(w, h, |x, y| {
-        let (x, y) = (x as usize, y as usize);
-        let c = (rows[y].0[x] + rows[y].0[x + 1] + rows[y + 1].0[x] + rows[y + 1].0[x + 1]) * 0.25;
+    let (w, h) = (w as usize, pixel_rows.len());
+    let radiance: Vec<Vec3> = (0..w * h)
+        .map(|k| {
+            let (x, y) = (k % w, k / w);
+            (rows[y].0[x] + rows[y].0[x + 1] + rows[y + 1].0[x] + rows[y + 1].0[x + 1]) * 0.25
+        })
+        .collect();
+    let image = image::RgbImage::from_fn(w as u32, h as u32, |x, y| {
+        let c = radiance[y as usize * w + x as usize];
         let q = |v: f32| (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8;
         image::Rgb([q(c.x), q(c.y), q(c.z)])
     });
     let rendered = Rendered {
         image,
+        radiance,
         counts,
         counters: counters.into_option(),
     };
