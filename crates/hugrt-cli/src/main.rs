@@ -92,7 +92,7 @@ enum Command {
 struct RenderArgs {
     /// Scene file (default: the built-in kitchen).
     scene: Option<String>,
-    /// Output PNG.
+    /// Output image: PNG (8 bits, clamped) or OpenEXR (.exr: float radiance).
     #[arg(short, long, default_value = "hugrt.png")]
     output: PathBuf,
     #[arg(long, default_value = "hug", help = ACCEL_HELP)]
@@ -462,7 +462,7 @@ impl RenderArgs {
                 e => e.into(),
             })?;
         bar.finish_and_clear();
-        save_image(&out.image, &output)?;
+        save_image(&out, &output)?;
         let c = &r.counts;
         say!(
             "scene {}: {} primitives, {} light{}; structure {} ({})",

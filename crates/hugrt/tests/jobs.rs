@@ -85,6 +85,10 @@ fn output_formats_follow_the_file_name() {
         ImageFormat::for_path(Path::new("a.PNG")).unwrap(),
         ImageFormat::Png
     );
+    assert_eq!(
+        ImageFormat::for_path(Path::new("a.exr")).unwrap(),
+        ImageFormat::Exr
+    );
     assert!(ImageFormat::for_path(Path::new("a.jpg")).is_err());
     assert!(ImageFormat::for_path(&std::env::temp_dir()).is_err());
     assert_eq!(
@@ -231,5 +235,47 @@ fn eg95_kitchens_quick_writes_consistent_data_and_plots() {
         assert!(dir.join(img).is_file(), "{img}");
     }
     assert!(index.contains("eg95-kitchens/report.md") && !index.contains("rtnews-spd"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// An EXR file holds the rendering's radiance unclamped, pixel for pixel; the PNG of the same
+/// rendering holds it clamped and quantised.
+#[test]
+fn exr_keeps_the_radiance_and_png_the_image() {
+    let mut scene = Scene::open("builtin:kitchen").unwrap();
+    for light in &mut scene.lights {
+        light.color *= 4.0;
+    }
+    let accel = AnyAccel::build(&scene, "bvh").unwrap();
+    let settings = RenderSettings {
+        width: 24,
+        height: 16,
+        depth: 2,
+        counters: false,
+    };
+    let rendered = render(&scene, &accel, &settings, &|_| {});
+    let dir = std::env::temp_dir().join(format!("hugrt-exr-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let exr_path = dir.join("k.exr");
+    hugrt::render::save_image(&rendered, &exr_path).unwrap();
+    let image = exr::prelude::read_first_rgba_layer_from_file(
+        &exr_path,
+        |size, _| vec![[0f32; 3]; size.0 * size.1],
+        |pixels: &mut Vec<[f32; 3]>, p, (r, g, b, _): (f32, f32, f32, f32)| {
+            pixels[p.1 * 24 + p.0] = [r, g, b]
+        },
+    )
+    .unwrap();
+    let read = &image.layer_data.channel_data.pixels;
+    let want: Vec<[f32; 3]> = rendered.radiance.iter().map(|c| c.to_array()).collect();
+    assert_eq!(read, &want);
+    assert!(
+        want.iter().any(|c| c.iter().any(|&v| v > 1.0)),
+        "some radiance above 1 to keep"
+    );
+    let png_path = dir.join("k.png");
+    hugrt::render::save_image(&rendered, &png_path).unwrap();
+    let png = image::open(&png_path).unwrap().to_rgb8();
+    assert_eq!(png, rendered.image);
     std::fs::remove_dir_all(&dir).unwrap();
 }
