@@ -1,6 +1,6 @@
 """hugrt: ray shooting on numpy arrays.
 
-Scenes come from arrays (``Scene.from_arrays``), files (``load``: NFF, PLY, OBJ, each
+Scenes come from arrays (``Scene.from_arrays``), files (``load``: NFF, PLY, OBJ, STL, glTF, each
 optionally gzip-compressed) or hugrt's generated scenes (``Scene.open("builtin:kitchen")``).
 ``scene.build(structure, **settings)`` builds one of ``structures()`` (the Hierarchy of
 Uniform Grids ``"hug"``, ``"grid"``, ``"bvh"``, ...); the structure answers batch queries

@@ -45,7 +45,7 @@ enum Command {
     /// Render a scene Whitted-style following the SPD test procedure, and report ray counts.
     ///
     /// With no SCENE, renders the built-in kitchen (EG95's case: a room with dense clusters of
-    /// small tessellated objects). SCENE is an .nff, .ply or .obj file (optionally .gz),
+    /// small tessellated objects). SCENE is an .nff, .ply, .obj, .stl, .gltf or .glb file (optionally .gz),
     /// builtin:room[:TRIANGLES] or builtin:KIND[:SIZE] (see `hugrt gen`).
     Render(RenderArgs),
     /// Batch ray queries: read a rays file, write a hits file (the embree-peer format).
@@ -120,7 +120,7 @@ struct RenderArgs {
 
 #[derive(clap::Args)]
 struct TraceArgs {
-    /// Scene file (.nff, .ply, .obj, optionally .gz), builtin:room[:TRIANGLES] or builtin:KIND[:SIZE].
+    /// Scene file (.nff, .ply, .obj, .stl, .gltf, .glb, optionally .gz), builtin:room[:TRIANGLES] or builtin:KIND[:SIZE].
     scene: String,
     /// Rays to trace (32-byte records, no header).
     #[arg(long)]
@@ -155,7 +155,7 @@ struct TraceArgs {
 
 #[derive(clap::Args)]
 struct StatsArgs {
-    /// Scene file (.nff, .ply, .obj, optionally .gz), builtin:room[:TRIANGLES] or builtin:KIND[:SIZE].
+    /// Scene file (.nff, .ply, .obj, .stl, .gltf, .glb, optionally .gz), builtin:room[:TRIANGLES] or builtin:KIND[:SIZE].
     scene: String,
     #[arg(long, default_value = "hug", help = ACCEL_HELP)]
     accel: String,

@@ -56,7 +56,7 @@ impl Scene {
         Ok(Scene::of(hugrt::scene::Scene::from_triangles(triangles)))
     }
 
-    /// A scene by name: a file (`.nff`, `.ply`, `.obj`, each optionally gzip-compressed) or
+    /// A scene by name: a file (`.nff`, `.ply`, `.obj`, `.stl`, `.gltf`, `.glb`, each optionally gzipped) or
     /// `builtin:KIND[:SIZE]` (`hugrt gen`'s kinds, `builtin:room[:TRIANGLES]`).
     #[staticmethod]
     fn open(py: Python<'_>, name: &str) -> PyResult<Scene> {
@@ -478,7 +478,7 @@ fn scene_error(e: hugrt::scene::SceneError) -> PyErr {
     }
 }
 
-/// Reads a scene file: `.nff`, `.ply` or `.obj`, each optionally gzip-compressed
+/// Reads a scene file: `.nff`, `.ply`, `.obj`, `.stl`, `.gltf` or `.glb`, each optionally gzipped
 /// (`Scene.open` also takes the built-in scenes' names).
 #[pyfunction]
 fn load(py: Python<'_>, path: std::path::PathBuf) -> PyResult<Scene> {

@@ -2,7 +2,7 @@
 //! Hierarchy of Uniform Grids of Cazals, Drettakis and Puech (Eurographics 1995).
 //!
 //! * [`geometry`]: rays, boxes, primitives and their intersection tests.
-//! * [`scene`]: the scene model, the NFF/PLY/OBJ readers and procedural scenes.
+//! * [`scene`]: the scene model, the NFF/PLY/OBJ/STL/glTF readers and procedural scenes.
 //! * [`accel`]: the spatial structures, all behind [`accel::Accel`], chosen by spec strings.
 //! * [`render`]: the Whitted renderer of the SPD test procedure.
 //! * [`stats`]: scene statistics (SCG97 Fig. 4).

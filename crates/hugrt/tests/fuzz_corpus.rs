@@ -6,7 +6,7 @@
 use std::path::{Path, PathBuf};
 
 /// The fuzz targets, each with the loader its inputs go to.
-const TARGETS: &[&str] = &["nff", "ply", "obj", "rays"];
+const TARGETS: &[&str] = &["nff", "ply", "obj", "stl", "gltf", "rays"];
 
 fn inputs(target: &str) -> Vec<PathBuf> {
     let fuzz = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fuzz");
@@ -30,6 +30,7 @@ fn replay(target: &str) -> usize {
         };
         let run = std::panic::catch_unwind(|| match target {
             "rays" => hugrt::fuzzing::rays_file(&data),
+            "gltf" if data.starts_with(b"glTF") => hugrt::fuzzing::scene_file("fuzz.glb", &data),
             ext => hugrt::fuzzing::scene_file(&format!("fuzz.{ext}"), &data),
         });
         assert!(run.is_ok(), "{} fails again", f.display());

@@ -131,6 +131,130 @@ fn obj_text(verts: &[Vec3], faces: &[Vec<usize>]) -> Vec<u8> {
     s.into_bytes()
 }
 
+fn stl_ascii(tris: &[[Vec3; 3]]) -> Vec<u8> {
+    let mut s = String::from("solid test mesh\n");
+    for t in tris {
+        s.push_str("  facet normal 0 0 1\n    outer loop\n");
+        for v in t {
+            writeln!(s, "      vertex {:e} {:e} {:e}", v.x, v.y, v.z).unwrap();
+        }
+        s.push_str("    endloop\n  endfacet\n");
+    }
+    s.push_str("endsolid test mesh\n");
+    s.into_bytes()
+}
+
+/// Binary STL; the header starts with "solid", as many exporters write it.
+fn stl_binary(tris: &[[Vec3; 3]]) -> Vec<u8> {
+    let mut out = b"solid written by the test".to_vec();
+    out.resize(80, b' ');
+    out.extend_from_slice(&(tris.len() as u32).to_le_bytes());
+    for t in tris {
+        out.extend_from_slice(&[0u8; 12]);
+        for v in t {
+            for c in v.to_array() {
+                out.extend_from_slice(&c.to_le_bytes());
+            }
+        }
+        out.extend_from_slice(&[0u8; 2]);
+    }
+    out
+}
+
+/// A glTF document with one indexed triangle mesh in a base64 `data:` buffer, placed by
+/// `nodes` (each a node's JSON), the scene's roots `roots`; `.0` is the JSON, `.1` the buffer's
+/// bytes.
+fn gltf_mesh(
+    verts: &[Vec3],
+    tris: &[[usize; 3]],
+    nodes: &[&str],
+    roots: &[usize],
+) -> (String, Vec<u8>) {
+    use base64::Engine;
+    let mut bin = Vec::new();
+    for v in verts {
+        for c in v.to_array() {
+            bin.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    let pos_len = bin.len();
+    for t in tris {
+        for &i in t {
+            bin.extend_from_slice(&(i as u32).to_le_bytes());
+        }
+    }
+    let (lo, hi) = verts
+        .iter()
+        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(a, b), v| {
+            (a.min(*v), b.max(*v))
+        });
+    let node_json = nodes;
+    let scene_nodes: Vec<String> = roots.iter().map(|i| i.to_string()).collect();
+    let json = format!(
+        r#"{{"asset": {{"version": "2.0"}}, "scene": 0, "scenes": [{{"nodes": [{}]}}], "nodes": [{}],
+  "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0}}, "indices": 1, "material": 0}}]}}],
+  "materials": [{{"pbrMetallicRoughness": {{"baseColorFactor": [0.9, 0.2, 0.1, 1.0], "metallicFactor": 0.25, "roughnessFactor": 0.5}}}}],
+  "buffers": [{{"byteLength": {}, "uri": "data:application/octet-stream;base64,{}"}}],
+  "bufferViews": [{{"buffer": 0, "byteOffset": 0, "byteLength": {pos_len}}}, {{"buffer": 0, "byteOffset": {pos_len}, "byteLength": {}}}],
+  "accessors": [{{"bufferView": 0, "componentType": 5126, "count": {}, "type": "VEC3", "min": [{}, {}, {}], "max": [{}, {}, {}]}},
+                {{"bufferView": 1, "componentType": 5125, "count": {}, "type": "SCALAR"}}]}}"#,
+        scene_nodes.join(", "),
+        node_json.join(", "),
+        bin.len(),
+        base64::engine::general_purpose::STANDARD.encode(&bin),
+        bin.len() - pos_len,
+        verts.len(),
+        lo.x,
+        lo.y,
+        lo.z,
+        hi.x,
+        hi.y,
+        hi.z,
+        tris.len() * 3,
+    );
+    (json, bin)
+}
+
+/// The same document as GLB: its buffer moved into the binary chunk.
+fn glb_of(json: &str, bin: &[u8]) -> Vec<u8> {
+    let start = json.find(r#""uri": "data:"#).unwrap();
+    let end = start + json[start..].find("\"}").unwrap() + 1;
+    let mut json = format!(
+        "{}{}",
+        &json[..start].trim_end().trim_end_matches(','),
+        &json[end..]
+    )
+    .into_bytes();
+    while !json.len().is_multiple_of(4) {
+        json.push(b' ');
+    }
+    let mut bin = bin.to_vec();
+    while !bin.len().is_multiple_of(4) {
+        bin.push(0);
+    }
+    let total = 12 + 8 + json.len() + 8 + bin.len();
+    let mut out = Vec::new();
+    out.extend_from_slice(b"glTF");
+    out.extend_from_slice(&2u32.to_le_bytes());
+    out.extend_from_slice(&(total as u32).to_le_bytes());
+    out.extend_from_slice(&(json.len() as u32).to_le_bytes());
+    out.extend_from_slice(b"JSON");
+    out.extend_from_slice(&json);
+    out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
+    out.extend_from_slice(b"BIN\0");
+    out.extend_from_slice(&bin);
+    out
+}
+
+/// `random_mesh`'s polygons as the triangles of a glTF mesh (fanned as the readers fan them).
+fn gltf_of_random(verts: &[Vec3], faces: &[Vec<usize>]) -> (String, Vec<u8>) {
+    let tris: Vec<[usize; 3]> = faces
+        .iter()
+        .flat_map(|f| (1..f.len() - 1).map(move |k| [f[0], f[k], f[k + 1]]))
+        .collect();
+    gltf_mesh(verts, &tris, &[r#"{"mesh": 0}"#], &[0])
+}
+
 #[test]
 fn meshes_round_trip_through_every_format_plain_and_gzipped() {
     for seed in 0..3 {
@@ -141,6 +265,13 @@ fn meshes_round_trip_through_every_format_plain_and_gzipped() {
             ("m.ply", ply_binary(&verts, &faces, false)),
             ("m.ply", ply_binary(&verts, &faces, true)),
             ("m.obj", obj_text(&verts, &faces)),
+            ("m.stl", stl_ascii(&want)),
+            ("m.stl", stl_binary(&want)),
+            ("m.gltf", gltf_of_random(&verts, &faces).0.into_bytes()),
+            ("m.glb", {
+                let (json, bin) = gltf_of_random(&verts, &faces);
+                glb_of(&json, &bin)
+            }),
         ];
         for (name, data) in files {
             for (name, data) in [
@@ -149,7 +280,7 @@ fn meshes_round_trip_through_every_format_plain_and_gzipped() {
             ] {
                 let s = Scene::from_bytes(&name, &data).unwrap_or_else(|e| panic!("{e}"));
                 assert_eq!(triangles(&s), want, "{name}");
-                assert_eq!(s.materials.len(), 1, "{name}: one default material");
+                assert_eq!(s.materials.len(), 1, "{name}: one material");
                 assert!(!s.lights.is_empty(), "{name}: a default light");
                 let b = s.bounds();
                 assert!(
@@ -334,7 +465,7 @@ fn malformed_meshes_are_errors_not_panics() {
             b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x\n".to_vec(),
             "t.obj:4:",
         ),
-        ("t.stl", b"solid\n".to_vec(), "t.stl: unknown scene format"),
+        ("t.xyz", b"solid\n".to_vec(), "t.xyz: unknown scene format"),
         ("t.ply.gz", vec![0x1f, 0x8b, 8, 0, 0, 0], "t.ply.gz:"),
     ];
     // A NaN coordinate in binary PLY.
@@ -370,4 +501,120 @@ fn missing_file_is_an_io_error_naming_it() {
         .unwrap_err()
         .to_string();
     assert!(e.starts_with("/nonexistent/hugrt/scene.nff:"), "{e}");
+}
+
+/// glTF nodes place meshes through their transforms (a matrix, or translation-rotation-scale),
+/// children inside their parents' frames, every placement of a shared mesh in visiting order;
+/// the base colour and metalness become the NFF material; an external buffer is read from
+/// beside the file.
+#[test]
+fn gltf_nodes_place_meshes_and_materials_map() {
+    let verts = [Vec3::ZERO, Vec3::X, Vec3::Y];
+    // Node 1 scales x by 2 and moves by (0, 0, 5); its child, node 2, moves by (10, 0, 0) in
+    // node 1's frame.
+    let nodes = [
+        r#"{"mesh": 0}"#,
+        r#"{"mesh": 0, "children": [2], "matrix": [2,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,5,1]}"#,
+        r#"{"mesh": 0, "translation": [10, 0, 0]}"#,
+    ];
+    let (json, bin) = gltf_mesh(&verts, &[[0, 1, 2]], &nodes, &[0, 1]);
+    let s = Scene::from_bytes("n.gltf", json.as_bytes()).unwrap_or_else(|e| panic!("{e}\n{json}"));
+    let want = vec![
+        [Vec3::ZERO, Vec3::X, Vec3::Y],
+        [
+            Vec3::new(0.0, 0.0, 5.0),
+            Vec3::new(2.0, 0.0, 5.0),
+            Vec3::new(0.0, 1.0, 5.0),
+        ],
+        [
+            Vec3::new(20.0, 0.0, 5.0),
+            Vec3::new(22.0, 0.0, 5.0),
+            Vec3::new(20.0, 1.0, 5.0),
+        ],
+    ];
+    assert_eq!(triangles(&s), want);
+    let m = s.material(2);
+    assert_eq!(m.color, Vec3::new(0.9, 0.2, 0.1));
+    assert_eq!((m.kd, m.ks), (0.75, 0.25));
+    // The buffer as a file beside the scene.
+    let dir = std::env::temp_dir().join(format!("hugrt-gltf-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("my mesh.bin"), &bin).unwrap();
+    let start = json.find("data:").unwrap();
+    let end = start + json[start..].find('"').unwrap();
+    let external = format!("{}my%20mesh.bin{}", &json[..start], &json[end..]);
+    std::fs::write(dir.join("n.gltf"), &external).unwrap();
+    let loaded = Scene::load(dir.join("n.gltf")).unwrap();
+    assert_eq!(triangles(&loaded), want);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn malformed_stl_and_gltf_name_file_line_and_reason() {
+    let tri = [[Vec3::ZERO, Vec3::X, Vec3::Y]];
+    let ascii = String::from_utf8(stl_ascii(&tri)).unwrap();
+    let binary = stl_binary(&tri);
+    let (json, _) = gltf_mesh(
+        &[Vec3::ZERO, Vec3::X, Vec3::Y],
+        &[[0, 1, 2]],
+        &[r#"{"mesh": 0}"#],
+        &[0],
+    );
+    let cases: Vec<(&str, Vec<u8>, &str)> = vec![
+        (
+            "t.stl",
+            ascii.replace("vertex 1e0", "vertex one").into_bytes(),
+            "t.stl:5: STL: 'one' is not a number",
+        ),
+        (
+            "t.stl",
+            ascii
+                .replace("vertex 1e0 0e0 0e0", "vertex 1e0 0e0")
+                .into_bytes(),
+            "t.stl:5: STL: 'vertex' with 2 numbers",
+        ),
+        (
+            "t.stl",
+            ascii
+                .replace("vertex 1e0 0e0 0e0", "vertex 1e0 0e0 NaN")
+                .into_bytes(),
+            "t.stl:5: STL: coordinate is NaN",
+        ),
+        (
+            "t.stl",
+            ascii.replace("    endloop\n", "").into_bytes(),
+            "t.stl: STL: the file ends inside a loop",
+        ),
+        (
+            "t.stl",
+            binary[..binary.len() - 1].to_vec(),
+            "not binary (its header declares 1 triangles, 134 bytes, but the file is 133 bytes)",
+        ),
+        ("t.stl", b"hello".to_vec(), "t.stl: STL: not ASCII"),
+        ("t.gltf", b"{not json".to_vec(), "t.gltf: glTF:"),
+        (
+            "t.gltf",
+            json.replace(
+                r#""count": 3, "type": "SCALAR""#,
+                r#""count": 3000, "type": "SCALAR""#,
+            )
+            .into_bytes(),
+            "t.gltf: glTF:",
+        ),
+        (
+            "t.gltf",
+            json.replace("base64,", "base64,@@").into_bytes(),
+            "t.gltf: glTF: buffer 0: base64",
+        ),
+        (
+            "t.glb",
+            b"glTF\x02\0\0\0\x10\0\0\0".to_vec(),
+            "t.glb: glTF:",
+        ),
+    ];
+    for (name, data, want) in cases {
+        let e = error_of(name, &data);
+        assert!(e.contains(want), "{name}: got '{e}', want '{want}'");
+        assert!(!e.contains('\n'), "{name}: one line: {e}");
+    }
 }

@@ -16,7 +16,7 @@ pub enum SceneError {
     #[error("{path}: {reason}")]
     Invalid { path: String, reason: String },
     #[error(
-        "{path}: unknown scene format (expected .nff, .ply or .obj, optionally followed by .gz)"
+        "{path}: unknown scene format (expected .nff, .ply, .obj, .stl, .gltf or .glb, optionally followed by .gz)"
     )]
     UnknownFormat { path: String },
 }

@@ -1,12 +1,14 @@
-//! Scenes: primitives, materials, lights and a camera, read from NFF, PLY or OBJ files
-//! (each optionally gzip-compressed) or generated in code.
+//! Scenes: primitives, materials, lights and a camera, read from NFF, PLY, OBJ, STL or glTF
+//! files (each optionally gzip-compressed) or generated in code.
 
 mod error;
 pub mod generate;
+mod gltf;
 mod nff;
 mod obj;
 mod ply;
 pub mod procedural;
+mod stl;
 pub mod write;
 
 pub use error::SceneError;
@@ -148,7 +150,8 @@ pub struct Scene {
 }
 
 impl Scene {
-    /// Reads a scene file: `.nff`, `.ply` or `.obj`, each also as `.gz` (detected by content).
+    /// Reads a scene file: `.nff`, `.ply`, `.obj`, `.stl`, `.gltf` or `.glb`, each also as `.gz`
+    /// (detected by content).
     pub fn load(path: impl AsRef<Path>) -> Result<Scene, SceneError> {
         let path = path.as_ref();
         let name = path.display().to_string();
@@ -218,6 +221,10 @@ impl Scene {
             ply::parse(&name, data)
         } else if stem.ends_with(".obj") {
             obj::parse(&name, data)
+        } else if stem.ends_with(".stl") {
+            stl::parse(&name, data)
+        } else if stem.ends_with(".gltf") || stem.ends_with(".glb") {
+            gltf::parse(&name, data)
         } else {
             Err(SceneError::UnknownFormat { path: name })
         }

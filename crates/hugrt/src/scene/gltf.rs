@@ -1,0 +1,258 @@
+//! glTF 2.0 scenes (`.gltf` JSON and `.glb` binary), read with the `gltf` crate: every mesh
+//! primitive of triangles (lists, strips and fans) that a node of the default scene (or of
+//! the first, or every mesh when there is no scene) places, in world space through the
+//! nodes' transforms, flattened into triangles in the order the nodes are visited (depth
+//! first, children in order) and the primitives listed. Buffers may be the GLB's binary chunk,
+//! `data:` URIs (base64) or files beside the scene file. Points, lines, textures, skins and
+//! morph targets are not read.
+//!
+//! Materials map the metallic-roughness model onto NFF's: the base colour factor is the
+//! colour, `Kd = 1 − metallic`, `Ks = metallic` with `Shine = 2 + 98·(1 − roughness)²`, and an
+//! alpha below 1 (blend mode) is transmittance `1 − alpha` with index 1.5 (glTF's default).
+
+use super::{Material, Scene, SceneError};
+use crate::geometry::{Shape, Vec3};
+use base64::Engine;
+use glam::Mat4;
+use std::path::Path;
+
+/// Most bytes a buffer may have: far above any real scene, below the machine's memory.
+const MAX_BUFFER: usize = 4 << 30;
+/// Deepest nesting of nodes, and most node visits: a node graph with a cycle, or with children
+/// shared level after level (2^depth visits), is refused rather than walked.
+const MAX_DEPTH: usize = 256;
+const MAX_NODES_VISITED: usize = 1 << 20;
+
+pub fn parse(path: &str, data: &[u8]) -> Result<Scene, SceneError> {
+    let bad = |reason: String| SceneError::invalid(path, format!("glTF: {reason}"));
+    let doc = gltf::Gltf::from_slice(data).map_err(|e| bad(e.to_string()))?;
+    let buffers = doc
+        .buffers()
+        .map(|b| buffer(path, &doc, &b).map_err(|r| bad(format!("buffer {}: {r}", b.index()))))
+        .collect::<Result<Vec<_>, _>>()?;
+    let mut placed: Vec<(gltf::Mesh, Mat4)> = Vec::new();
+    let scene = doc.default_scene().or_else(|| doc.scenes().next());
+    match scene {
+        Some(s) => {
+            let mut stack: Vec<(gltf::Node, Mat4, usize)> =
+                s.nodes().map(|n| (n, Mat4::IDENTITY, 0)).collect();
+            stack.reverse();
+            let mut visited = 0usize;
+            while let Some((node, parent, depth)) = stack.pop() {
+                visited += 1;
+                if depth > MAX_DEPTH || visited > MAX_NODES_VISITED {
+                    return Err(bad(format!(
+                        "nodes nested more than {MAX_DEPTH} deep or visited more than {MAX_NODES_VISITED} times (a cycle, or children shared without end)"
+                    )));
+                }
+                let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
+                if let Some(m) = node.mesh() {
+                    placed.push((m, world));
+                }
+                let first = stack.len();
+                stack.extend(node.children().map(|c| (c, world, depth + 1)));
+                stack[first..].reverse();
+            }
+        }
+        None => placed.extend(doc.meshes().map(|m| (m, Mat4::IDENTITY))),
+    }
+    let mut triangles: Vec<[Vec3; 3]> = Vec::new();
+    let mut runs: Vec<(u32, u32)> = Vec::new();
+    let mut materials: Vec<Material> = Vec::new();
+    let mut material_of: std::collections::HashMap<Option<usize>, u32> = Default::default();
+    for (mesh, world) in &placed {
+        for prim in mesh.primitives() {
+            use gltf::mesh::Mode;
+            let mode = prim.mode();
+            if !matches!(
+                mode,
+                Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+            ) {
+                continue;
+            }
+            let what = || format!("mesh {} primitive {}", mesh.index(), prim.index());
+            let reader = prim.reader(|b| buffers.get(b.index()).map(|v| &v[..]));
+            let Some(positions) = reader.read_positions() else {
+                return Err(bad(format!("{}: no readable POSITION", what())));
+            };
+            let points: Vec<Vec3> = positions
+                .map(|p| world.transform_point3(Vec3::from_array(p)))
+                .collect();
+            if let Some(i) = points.iter().position(|p| !p.is_finite()) {
+                return Err(bad(format!(
+                    "{}: vertex {i} is NaN or infinite (after its node's transform)",
+                    what()
+                )));
+            }
+            let indices: Vec<u32> = match (prim.indices(), reader.read_indices()) {
+                (_, Some(i)) => i.into_u32().collect(),
+                (None, None) => (0..points.len() as u32).collect(),
+                (Some(a), None) => {
+                    return Err(bad(format!(
+                        "{}: indices (accessor {}) lie outside their buffer",
+                        what(),
+                        a.index()
+                    )));
+                }
+            };
+            let vertex = |i: u32| {
+                points.get(i as usize).copied().ok_or_else(|| {
+                    bad(format!(
+                        "{}: index {i} out of range ({} vertices)",
+                        what(),
+                        points.len()
+                    ))
+                })
+            };
+            let first = triangles.len();
+            let n = indices.len();
+            match mode {
+                Mode::Triangles => {
+                    for t in indices.chunks_exact(3) {
+                        triangles.push([vertex(t[0])?, vertex(t[1])?, vertex(t[2])?]);
+                    }
+                }
+                Mode::TriangleStrip => {
+                    for k in 2..n {
+                        let (a, b) = if k % 2 == 0 {
+                            (k - 2, k - 1)
+                        } else {
+                            (k - 1, k - 2)
+                        };
+                        triangles.push([
+                            vertex(indices[a])?,
+                            vertex(indices[b])?,
+                            vertex(indices[k])?,
+                        ]);
+                    }
+                }
+                _ => {
+                    for k in 2..n {
+                        triangles.push([
+                            vertex(indices[0])?,
+                            vertex(indices[k - 1])?,
+                            vertex(indices[k])?,
+                        ]);
+                    }
+                }
+            }
+            if triangles.len() > first {
+                let m = prim.material();
+                let next = materials.len() as u32;
+                let id = *material_of.entry(m.index()).or_insert_with(|| {
+                    materials.push(material(&m));
+                    next
+                });
+                if runs.last().is_none_or(|r| r.1 != id) {
+                    runs.push((first as u32, id));
+                }
+            }
+            if triangles.len() >= u32::MAX as usize - 1 {
+                return Err(bad("more than 2^32-2 triangles".into()));
+            }
+        }
+    }
+    let mut scene = Scene::from_triangles(triangles);
+    if !materials.is_empty() {
+        scene.materials = materials;
+        scene.material_runs = runs;
+    }
+    debug_assert!(scene.shapes.iter().all(|s| matches!(s, Shape::Triangle(_))));
+    Ok(scene)
+}
+
+fn material(m: &gltf::Material) -> Material {
+    let pbr = m.pbr_metallic_roughness();
+    let [r, g, b, a] = pbr.base_color_factor();
+    let metallic = pbr.metallic_factor().clamp(0.0, 1.0);
+    let rough = pbr.roughness_factor().clamp(0.0, 1.0);
+    let blended = m.alpha_mode() == gltf::material::AlphaMode::Blend;
+    Material {
+        color: Vec3::new(r, g, b).clamp(Vec3::ZERO, Vec3::ONE),
+        kd: 1.0 - metallic,
+        ks: metallic,
+        shine: 2.0 + 98.0 * (1.0 - rough) * (1.0 - rough),
+        transmittance: if blended {
+            (1.0 - a).clamp(0.0, 1.0)
+        } else {
+            0.0
+        },
+        ior: 1.5,
+    }
+}
+
+/// A buffer's bytes: the GLB's binary chunk, a `data:` URI, or a file beside the scene file.
+fn buffer(path: &str, doc: &gltf::Gltf, b: &gltf::Buffer) -> Result<Vec<u8>, String> {
+    if b.length() > MAX_BUFFER {
+        return Err(format!("{} bytes declared, more than 4 GiB", b.length()));
+    }
+    let bytes = match b.source() {
+        gltf::buffer::Source::Bin => doc
+            .blob
+            .clone()
+            .ok_or("refers to the GLB binary chunk, which the file does not have")?,
+        gltf::buffer::Source::Uri(uri) => {
+            if let Some(rest) = uri.strip_prefix("data:") {
+                let (_, payload) = rest
+                    .split_once(";base64,")
+                    .ok_or("a data: URI that is not base64")?;
+                base64::engine::general_purpose::STANDARD
+                    .decode(payload)
+                    .map_err(|e| format!("base64: {e}"))?
+            } else {
+                let file = Path::new(path)
+                    .parent()
+                    .unwrap_or(Path::new("."))
+                    .join(percent_decoded(uri));
+                read_bounded(&file, b.length()).map_err(|e| format!("{}: {e}", file.display()))?
+            }
+        }
+    };
+    if bytes.len() < b.length() {
+        return Err(format!(
+            "{} bytes declared, {} present",
+            b.length(),
+            bytes.len()
+        ));
+    }
+    Ok(bytes)
+}
+
+/// A relative URI's `%XX` escapes decoded (file names with spaces are written `%20`).
+fn percent_decoded(uri: &str) -> String {
+    let bytes = uri.as_bytes();
+    let mut out = Vec::with_capacity(bytes.len());
+    let mut i = 0;
+    while i < bytes.len() {
+        let hex = |c: u8| (c as char).to_digit(16);
+        if bytes[i] == b'%'
+            && i + 2 < bytes.len()
+            && let (Some(h), Some(l)) = (hex(bytes[i + 1]), hex(bytes[i + 2]))
+        {
+            out.push((h * 16 + l) as u8);
+            i += 3;
+            continue;
+        }
+        out.push(bytes[i]);
+        i += 1;
+    }
+    String::from_utf8_lossy(&out).into_owned()
+}
+
+/// A buffer file's bytes, read only when it is a regular file no larger than it needs to be
+/// past the declared length (a URI naming a device or a huge file is refused, not read).
+fn read_bounded(file: &Path, declared: usize) -> std::io::Result<Vec<u8>> {
+    use std::io::Read;
+    let meta = std::fs::metadata(file)?;
+    if !meta.is_file() {
+        return Err(std::io::Error::other("not a regular file"));
+    }
+    if meta.len() > MAX_BUFFER as u64 {
+        return Err(std::io::Error::other("larger than 4 GiB"));
+    }
+    let mut out = Vec::with_capacity(declared.min(meta.len() as usize));
+    std::fs::File::open(file)?
+        .take(MAX_BUFFER as u64)
+        .read_to_end(&mut out)?;
+    Ok(out)
+}
