@@ -40,6 +40,7 @@ class Accel:
         tmin: _Bound = None,
         tmax: _Bound = None,
         threads: Optional[int] = None,
+        barycentrics: bool = True,
     ) -> Tuple[
         npt.NDArray[np.float32],
         npt.NDArray[np.int64],

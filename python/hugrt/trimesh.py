@@ -103,7 +103,9 @@ class RayMeshIntersector:
                 keep = rank < max_hits
                 index_ray, index_tri, t = index_ray[keep], index_tri[keep], t[keep]
         else:
-            t, prim, _u, _v = accel.intersect(origins, directions, threads=self.threads)
+            t, prim, _u, _v = accel.intersect(
+                origins, directions, threads=self.threads, barycentrics=False
+            )
             index_ray = np.nonzero(prim >= 0)[0].astype(np.int64)
             index_tri = prim[index_ray]
             t = t[index_ray]
@@ -132,7 +134,9 @@ class RayMeshIntersector:
     def intersects_first(self, ray_origins, ray_directions, **kwargs: Any):
         """The first triangle each ray hits, -1 where it hits none (int64)."""
         origins, directions = self._rays(ray_origins, ray_directions)
-        _t, prim, _u, _v = self.accel.intersect(origins, directions, threads=self.threads)
+        _t, prim, _u, _v = self.accel.intersect(
+            origins, directions, threads=self.threads, barycentrics=False
+        )
         return prim
 
     def intersects_any(self, ray_origins, ray_directions, **kwargs: Any):

@@ -73,6 +73,10 @@ def test_barycentrics_rebuild_the_hit_point():
     assert np.allclose(p, q, atol=1e-4)
     assert ((u[hit] >= -1e-4) & (w[hit] >= -1e-4) & (u[hit] + w[hit] <= 1 + 1e-4)).all()
     assert (u[~hit] == 0).all() and np.isinf(t[~hit]).all() and (prim[~hit] == -1).all()
+    # Without barycentrics: the same hits, the weights left at 0.
+    t2, prim2, u2, w2 = hugrt.Scene.from_arrays(v, f).build("hug").intersect(o, d, barycentrics=False)
+    assert np.array_equal(t2, t) and np.array_equal(prim2, prim)
+    assert not u2.any() and not w2.any()
 
 
 def test_occluded_is_a_hit_within_the_interval():

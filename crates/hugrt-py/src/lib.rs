@@ -226,9 +226,10 @@ impl Accel {
     /// The closest hit of every ray `origins[i] + t·directions[i]`, `t` in `[tmin, tmax]`
     /// (scalars or one per ray). Returns `(t, primitive, u, v)`: float32 `t` (inf on a miss),
     /// int64 primitive index (-1 on a miss) and the barycentric weights of a triangle's
-    /// vertices 1 and 2 at the hit (0 for other primitives and misses).
-    #[pyo3(signature = (origins, directions, tmin = None, tmax = None, threads = None))]
-    #[allow(clippy::type_complexity)]
+    /// vertices 1 and 2 at the hit (0 for other primitives and misses; all 0 with
+    /// `barycentrics=False`, which spares computing them: a sixth of a fast query's time).
+    #[pyo3(signature = (origins, directions, tmin = None, tmax = None, threads = None, barycentrics = true))]
+    #[allow(clippy::type_complexity, clippy::too_many_arguments)]
     fn intersect<'py>(
         &self,
         py: Python<'py>,
@@ -237,6 +238,7 @@ impl Accel {
         tmin: Option<&Bound<'py, PyAny>>,
         tmax: Option<&Bound<'py, PyAny>>,
         threads: Option<usize>,
+        barycentrics: bool,
     ) -> PyResult<(
         Bound<'py, PyArray1<f32>>,
         Bound<'py, PyArray1<i64>>,
@@ -262,10 +264,11 @@ impl Accel {
                     .for_each(|(i, (t, prim, u, v))| {
                         let ray = rays.ray(i);
                         match self.accel.closest_hit(&*self.scene, &ray, &mut NoCounters) {
-                            Some(h) => {
+                            Some(h) if barycentrics => {
                                 let d = h.details(&*self.scene, &ray);
                                 (*t, *prim, *u, *v) = (h.t, h.prim as i64, d.u, d.v);
                             }
+                            Some(h) => (*t, *prim) = (h.t, h.prim as i64),
                             None => (*t, *prim) = (f32::INFINITY, -1),
                         }
                     })
