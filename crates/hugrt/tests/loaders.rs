@@ -422,11 +422,12 @@ fn malformed_meshes_are_errors_not_panics() {
         (
             "t.ply",
             good_ply[..good_ply.len() - 3].to_vec(),
-            "t.ply: PLY",
+            "t.ply: PLY: Unexpected end of file while reading binary element 'face'",
         ),
-        ("t.ply", good_ply[..40].to_vec(), "t.ply: PLY"),
-        ("t.ply", b"not a ply file\n".to_vec(), "t.ply: PLY"),
-        ("t.ply", Vec::new(), "t.ply: PLY"),
+        // Header errors are at their line.
+        ("t.ply", good_ply[..40].to_vec(), "t.ply:3: PLY"),
+        ("t.ply", b"not a ply file\n".to_vec(), "t.ply:"),
+        ("t.ply", Vec::new(), "t.ply:"),
         (
             "t.ply",
             ply_ascii(&verts, &[vec![0, 1, 50]]),
@@ -492,6 +493,7 @@ fn malformed_meshes_are_errors_not_panics() {
             got.starts_with(want),
             "{name}\n  got  {got}\n  want {want}…"
         );
+        assert!(!got.contains('\n'), "{name}: one line, got {got}");
     }
 }
 
@@ -617,4 +619,79 @@ fn malformed_stl_and_gltf_name_file_line_and_reason() {
         assert!(e.contains(want), "{name}: got '{e}', want '{want}'");
         assert!(!e.contains('\n'), "{name}: one line: {e}");
     }
+}
+
+/// Files as other tools write them load: UTF-16 of either byte order and UTF-8 with a BOM
+/// (NFF, OBJ, STL), an OBJ with a bare `usemtl` or Latin-1 bytes in a name; and their errors
+/// keep their lines.
+#[test]
+fn text_files_from_other_tools_load() {
+    let obj = "# made elsewhere\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    let want = triangles(&Scene::from_bytes("a.obj", obj.as_bytes()).unwrap());
+    let utf16 = |s: &str, le: bool| {
+        let mut out = if le {
+            vec![0xFF, 0xFE]
+        } else {
+            vec![0xFE, 0xFF]
+        };
+        for u in s.encode_utf16() {
+            out.extend_from_slice(&if le { u.to_le_bytes() } else { u.to_be_bytes() });
+        }
+        out
+    };
+    let stl = String::from_utf8(stl_ascii(&want)).unwrap();
+    let nff = "s 0 0 0 1\n";
+    for (name, text) in [("a.obj", obj), ("a.stl", stl.as_str()), ("a.nff", nff)] {
+        let plain = Scene::from_bytes(name, text.as_bytes()).unwrap();
+        let mut bom = vec![0xEF, 0xBB, 0xBF];
+        bom.extend_from_slice(text.as_bytes());
+        for data in [utf16(text, true), utf16(text, false), bom] {
+            let s = Scene::from_bytes(name, &data).unwrap_or_else(|e| panic!("{name}: {e}"));
+            assert_eq!(s.shapes, plain.shapes, "{name}");
+        }
+    }
+    let latin1 = b"o caf\xe9\ng \xfcber\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl\nf 1 2 3\n";
+    assert_eq!(
+        triangles(&Scene::from_bytes("b.obj", latin1).unwrap()),
+        want
+    );
+    let e = error_of(
+        "c.obj",
+        &utf16("v 0 0 0\nv 1 0 zero\nv 0 1 0\nf 1 2 3\n", true),
+    );
+    assert!(e.starts_with("c.obj:2:"), "{e}");
+    let e = error_of("d.obj", b"o caf\xe9\nv 0 0 0\nv 1 0 0\nf 1 2 9\n");
+    assert!(e.starts_with("d.obj:4:"), "{e}");
+}
+
+/// An OBJ's `.mtl` materials map onto NFF's model, face by face; faces without a material,
+/// or with an unknown one, are grey; an OBJ whose `.mtl` is missing still loads.
+#[test]
+fn obj_materials_come_from_the_mtl_beside_it() {
+    let dir = std::env::temp_dir().join(format!("hugrt-mtl-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(
+        dir.join("m.mtl"),
+        "newmtl red\nKd 0.9 0.1 0.1\nKs 0.3 0.2 0.1\nNs 40\nd 0.75\nNi 1.3\nnewmtl blue\nKd 0 0 1\n",
+    )
+    .unwrap();
+    let obj = "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nusemtl red\nf 1 3 2\nf 2 3 1\nusemtl nope\nf 3 1 2\nusemtl blue\nf 1 2 3\n";
+    std::fs::write(dir.join("m.obj"), obj).unwrap();
+    let s = Scene::load(dir.join("m.obj")).unwrap();
+    assert_eq!(s.shapes.len(), 5);
+    let grey = hugrt::scene::Material::default();
+    assert_eq!(*s.material(0), grey);
+    let red = *s.material(1);
+    assert_eq!(red.color, Vec3::new(0.9, 0.1, 0.1));
+    assert_eq!(
+        (red.kd, red.ks, red.shine, red.transmittance, red.ior),
+        (1.0, 0.3, 40.0, 0.25, 1.3)
+    );
+    assert_eq!(*s.material(2), red);
+    assert_eq!(*s.material(3), grey);
+    assert_eq!(s.material(4).color, Vec3::new(0.0, 0.0, 1.0));
+    std::fs::remove_file(dir.join("m.mtl")).unwrap();
+    let s = Scene::load(dir.join("m.obj")).unwrap();
+    assert!((0..5).all(|i| *s.material(i) == grey));
+    std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -215,6 +215,16 @@ impl Scene {
         let name = name.to_string();
         let lower = name.to_ascii_lowercase();
         let stem = lower.strip_suffix(".gz").unwrap_or(&lower);
+        let is_text = [".nff", ".obj", ".stl", ".gltf"]
+            .iter()
+            .any(|e| stem.ends_with(e));
+        let transcoded;
+        let data = if is_text {
+            transcoded = utf8_text(&name, data)?;
+            &transcoded[..]
+        } else {
+            data
+        };
         if stem.ends_with(".nff") {
             nff::parse(&name, data)
         } else if stem.ends_with(".ply") {
@@ -307,6 +317,30 @@ impl Primitives for Scene {
             Shape::Cone(c) => PrimitiveKind::Cone(c),
         }
     }
+}
+
+/// A text format's bytes as UTF-8 without a byte-order mark: UTF-16 files (a BOM of either
+/// byte order, as some Windows tools write them) are decoded, a UTF-8 BOM is dropped, and
+/// anything else is passed on as it is (the formats' readers take other bytes in names and
+/// comments, and report them where they matter).
+fn utf8_text<'a>(name: &str, data: &'a [u8]) -> Result<std::borrow::Cow<'a, [u8]>, SceneError> {
+    use std::borrow::Cow;
+    let units = |le: bool| {
+        data[2..].chunks(2).map(move |c| match c {
+            [a, b] if le => u16::from_le_bytes([*a, *b]),
+            [a, b] => u16::from_be_bytes([*a, *b]),
+            _ => 0xFFFD,
+        })
+    };
+    let decoded = match data {
+        [0xEF, 0xBB, 0xBF, rest @ ..] => return Ok(Cow::Borrowed(rest)),
+        [0xFF, 0xFE, ..] => char::decode_utf16(units(true)).collect::<Result<String, _>>(),
+        [0xFE, 0xFF, ..] => char::decode_utf16(units(false)).collect::<Result<String, _>>(),
+        _ => return Ok(Cow::Borrowed(data)),
+    };
+    decoded
+        .map(|s| Cow::Owned(s.into_bytes()))
+        .map_err(|e| SceneError::invalid(name, format!("UTF-16 text with a broken character: {e}")))
 }
 
 /// Decompressed size limit: far above any real scene, below the machine's memory.

@@ -1,9 +1,21 @@
 //! Wavefront OBJ meshes, read with `tobj`. Polygons are fanned in order by tobj, so triangle
-//! `i` is the `i`-th triangle in file order. Materials (`.mtl`) are not read: the mesh gets the
-//! default material. tobj's errors carry no line number; hugrt finds the offending line itself.
+//! `i` is the `i`-th triangle in file order. tobj's errors carry no line number; hugrt finds the
+//! offending line itself.
+//!
+//! Materials come from the `.mtl` files the OBJ names (`mtllib`, beside it), mapped onto NFF's
+//! model: `Kd` is the colour (with `Kd = 1`), the largest component of `Ks` the specular share
+//! `Ks` (which in NFF also reflects), `Ns` the shine, `1 − d` (or `Tr`) the transmittance and `Ni`
+//! the index of refraction. Faces before any `usemtl`, under an unknown name or under a bare
+//! `usemtl`, and every face when the `.mtl` cannot be read, get the default grey.
+//!
+//! Files written by other tools are taken as they are: a `usemtl` without a name (which tobj
+//! refuses) means the default material, and bytes that are not UTF-8 (a Latin-1 name) are
+//! replaced in names, where they do not matter, rather than refusing the file.
 
-use super::{Scene, SceneError, finite};
+use super::{Material, Scene, SceneError, finite};
 use crate::geometry::Vec3;
+use std::borrow::Cow;
+use std::path::Path;
 
 pub fn parse(path: &str, data: &[u8]) -> Result<Scene, SceneError> {
     let opts = tobj::LoadOptions {
@@ -12,13 +24,34 @@ pub fn parse(path: &str, data: &[u8]) -> Result<Scene, SceneError> {
         ignore_points: true,
         ignore_lines: true,
     };
+    let text = readable(data);
+    let data = &text[..];
+    let dir = Path::new(path)
+        .parent()
+        .unwrap_or(Path::new("."))
+        .to_path_buf();
     let mut reader = std::io::BufReader::new(data);
-    let (models, _materials) =
-        tobj::load_obj_buf(&mut reader, &opts, |_| Err(tobj::LoadError::OpenFileFailed))
-            .map_err(|e| locate(path, data, e))?;
+    let (models, materials) = tobj::load_obj_buf(&mut reader, &opts, |mtl| {
+        let file =
+            std::fs::File::open(dir.join(mtl)).map_err(|_| tobj::LoadError::OpenFileFailed)?;
+        tobj::load_mtl_buf(&mut std::io::BufReader::new(file))
+    })
+    .map_err(|e| locate(path, data, e))?;
+    let materials: Vec<Material> = materials
+        .map(|m| m.iter().map(material).collect())
+        .unwrap_or_default();
     let mut triangles = Vec::new();
+    let mut runs: Vec<(u32, u32)> = Vec::new();
     let mut vertex_base = 0usize;
     for m in &models {
+        let id = m
+            .mesh
+            .material_id
+            .filter(|&i| i < materials.len())
+            .map_or(0, |i| i as u32 + 1);
+        if runs.last().is_none_or(|r| r.1 != id) {
+            runs.push((triangles.len() as u32, id));
+        }
         let pos = &m.mesh.positions;
         let points: Vec<Vec3> = pos
             .chunks_exact(3)
@@ -44,7 +77,54 @@ pub fn parse(path: &str, data: &[u8]) -> Result<Scene, SceneError> {
         }
         vertex_base += points.len();
     }
-    Ok(Scene::from_triangles(triangles))
+    let mut scene = Scene::from_triangles(triangles);
+    if !materials.is_empty() {
+        scene.materials.extend(materials);
+        scene.material_runs = runs;
+    }
+    Ok(scene)
+}
+
+/// The OBJ text as tobj can read it: not-UTF-8 bytes replaced (tobj refuses the file), and a
+/// bare `usemtl` line blanked (tobj refuses it), keeping every line where it was.
+fn readable(data: &[u8]) -> Cow<'_, [u8]> {
+    let bare_usemtl = |l: &[u8]| l.trim_ascii() == b"usemtl";
+    let has_bare = data.split(|&b| b == b'\n').any(bare_usemtl);
+    let text = String::from_utf8_lossy(data);
+    if !has_bare {
+        return match text {
+            Cow::Borrowed(_) => Cow::Borrowed(data),
+            Cow::Owned(s) => Cow::Owned(s.into_bytes()),
+        };
+    }
+    let lines: Vec<&str> = text
+        .split('\n')
+        .map(|l| if bare_usemtl(l.as_bytes()) { "" } else { l })
+        .collect();
+    Cow::Owned(lines.join("\n").into_bytes())
+}
+
+fn material(m: &tobj::Material) -> Material {
+    let default = Material::default();
+    let max = |c: [f32; 3]| c[0].max(c[1]).max(c[2]);
+    let transmittance = m
+        .dissolve
+        .map(|d| 1.0 - d)
+        .or_else(|| m.unknown_param.get("Tr").and_then(|t| t.parse().ok()))
+        .unwrap_or(0.0);
+    let fix = |x: f32, lo: f32, hi: f32, or: f32| if x.is_finite() { x.clamp(lo, hi) } else { or };
+    Material {
+        color: m
+            .diffuse
+            .map(Vec3::from_array)
+            .filter(|c| c.is_finite())
+            .map_or(default.color, |c| c.clamp(Vec3::ZERO, Vec3::ONE)),
+        kd: default.kd,
+        ks: m.specular.map_or(0.0, |s| fix(max(s), 0.0, 1.0, 0.0)),
+        shine: m.shininess.map_or(0.0, |n| fix(n, 0.0, 1e4, 0.0)),
+        transmittance: fix(transmittance, 0.0, 1.0, 0.0),
+        ior: m.optical_density.map_or(1.0, |n| fix(n, 0.01, 10.0, 1.0)),
+    }
 }
 
 fn vertex_error(path: &str, data: &[u8], vertex: usize, reason: &str) -> SceneError {

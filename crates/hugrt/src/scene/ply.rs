@@ -74,11 +74,11 @@ impl PropertyAccess for Skip {
 }
 
 pub fn parse(path: &str, data: &[u8]) -> Result<Scene, SceneError> {
-    let ply_err = |e: ply_rs_bw::parser::ParseError| SceneError::invalid(path, format!("PLY: {e}"));
     let mut reader = Reader::new(std::io::BufReader::new(data));
     let header = Parser::<Skip>::new()
         .read_header(&mut reader)
-        .map_err(ply_err)?;
+        .map_err(|e| ply_error(path, &e, None))?;
+    let binary = !matches!(header.encoding, ply_rs_bw::ply::Encoding::Ascii);
     check_counts(path, data, &header)?;
     let mut vertices: Option<Vec<Vertex>> = None;
     let mut faces: Option<Vec<Face>> = None;
@@ -88,20 +88,20 @@ pub fn parse(path: &str, data: &[u8]) -> Result<Scene, SceneError> {
                 vertices = Some(
                     Parser::<Vertex>::new()
                         .read_payload_for_element(&mut reader, def, &header)
-                        .map_err(ply_err)?,
+                        .map_err(|e| ply_error(path, &e, Some((name, binary))))?,
                 )
             }
             "face" => {
                 faces = Some(
                     Parser::<Face>::new()
                         .read_payload_for_element(&mut reader, def, &header)
-                        .map_err(ply_err)?,
+                        .map_err(|e| ply_error(path, &e, Some((name, binary))))?,
                 )
             }
             _ => {
                 Parser::<Skip>::new()
                     .read_payload_for_element(&mut reader, def, &header)
-                    .map_err(ply_err)?;
+                    .map_err(|e| ply_error(path, &e, Some((name, binary))))?;
             }
         }
     }
@@ -199,4 +199,31 @@ fn check_counts(
         }
     }
     Ok(())
+}
+
+/// One line for a ply-rs error: its first line (the rest repeats it from inner parsers), at the
+/// file's line for the header and ASCII payloads, at the element for binary ones (where the
+/// parser's "Line" counts nothing a reader can find).
+fn ply_error(
+    path: &str,
+    e: &ply_rs_bw::parser::ParseError,
+    element: Option<(&str, bool)>,
+) -> SceneError {
+    let text = e.to_string();
+    let first = text.lines().next().unwrap_or("").trim();
+    let (line, message) = match first.strip_prefix("Line ").and_then(|r| r.split_once(": ")) {
+        Some((n, m)) => (n.parse::<usize>().ok(), m),
+        None => (None, first),
+    };
+    let message = message.trim_end_matches('.');
+    match (element, line) {
+        (Some((name, true)), _) if message.contains(&format!("'{name}'")) => {
+            SceneError::invalid(path, format!("PLY: {message}"))
+        }
+        (Some((name, true)), _) => {
+            SceneError::invalid(path, format!("PLY: binary element '{name}': {message}"))
+        }
+        (_, Some(n)) => SceneError::parse(path, n, format!("PLY: {message}")),
+        _ => SceneError::invalid(path, format!("PLY: {message}")),
+    }
 }
