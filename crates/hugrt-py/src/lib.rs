@@ -336,27 +336,43 @@ impl Accel {
     )> {
         let rays = Rays::read(origins, directions, tmin, tmax)?;
         let pool = pool(threads)?;
-        let per_ray: Vec<Vec<(Hit, f32, f32)>> = py.detach(|| {
+        // One flat buffer per task of rays rather than a vector per ray: on camera rays, where
+        // most rays hit once or never, the allocations were most of the call.
+        type Chunk = (Vec<i64>, Vec<f32>, Vec<i64>, Vec<f32>, Vec<f32>);
+        let chunks: Vec<Chunk> = py.detach(|| {
             on_pool(pool, || {
-                (0..rays.len())
+                let starts: Vec<usize> = (0..rays.len()).step_by(RAYS_PER_TASK).collect();
+                starts
                     .into_par_iter()
-                    .with_min_len(RAYS_PER_TASK)
-                    .map(|i| {
-                        let ray = rays.ray(i);
-                        self.accel
-                            .all_hits(&*self.scene, &ray, &mut NoCounters)
-                            .into_iter()
-                            .map(|h| {
+                    .map(|start| {
+                        let end = (start + RAYS_PER_TASK).min(rays.len());
+                        let mut c: Chunk = Default::default();
+                        let mut hits: Vec<Hit> = Vec::new();
+                        for i in start..end {
+                            let ray = rays.ray(i);
+                            hits.clear();
+                            self.accel
+                                .for_each_hit(&*self.scene, &ray, &mut NoCounters, |h| {
+                                    hits.push(h);
+                                    std::ops::ControlFlow::Continue(())
+                                });
+                            hits.sort_by(Hit::order);
+                            for h in &hits {
                                 let d = h.details(&*self.scene, &ray);
-                                (h, d.u, d.v)
-                            })
-                            .collect()
+                                c.1.push(h.t);
+                                c.2.push(h.prim as i64);
+                                c.3.push(d.u);
+                                c.4.push(d.v);
+                            }
+                            c.0.push(hits.len() as i64);
+                        }
+                        c
                     })
                     .collect()
             })
         });
-        let total: usize = per_ray.iter().map(Vec::len).sum();
-        let mut offsets = Vec::with_capacity(per_ray.len() + 1);
+        let total: usize = chunks.iter().map(|c| c.1.len()).sum();
+        let mut offsets = Vec::with_capacity(rays.len() + 1);
         let (mut t, mut prim, mut u, mut v) = (
             Vec::with_capacity(total),
             Vec::with_capacity(total),
@@ -364,14 +380,14 @@ impl Accel {
             Vec::with_capacity(total),
         );
         offsets.push(0i64);
-        for hits in per_ray {
-            for (h, hu, hv) in hits {
-                t.push(h.t);
-                prim.push(h.prim as i64);
-                u.push(hu);
-                v.push(hv);
+        for (counts, ct, cp, cu, cv) in chunks {
+            for n in counts {
+                offsets.push(offsets.last().unwrap() + n);
             }
-            offsets.push(t.len() as i64);
+            t.extend(ct);
+            prim.extend(cp);
+            u.extend(cu);
+            v.extend(cv);
         }
         Ok((
             offsets.into_pyarray(py),
