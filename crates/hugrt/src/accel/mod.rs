@@ -265,6 +265,7 @@ pub trait Accel: Sized + Send + Sync {
         if !ray.is_traceable() {
             return None;
         }
+        let ray = &ray.without_subnormal_direction();
         let mut sink = Closest::new(ray.tmax);
         self.query(prims, ray, &mut sink, counters);
         sink.hit()
@@ -282,6 +283,7 @@ pub trait Accel: Sized + Send + Sync {
         if !ray.is_traceable() {
             return None;
         }
+        let ray = &ray.without_subnormal_direction();
         let mut sink = AnyHit::new(ray.tmax);
         self.query(prims, ray, &mut sink, counters);
         sink.hit()
@@ -305,6 +307,7 @@ pub trait Accel: Sized + Send + Sync {
         f: F,
     ) {
         if ray.is_traceable() {
+            let ray = &ray.without_subnormal_direction();
             self.query(prims, ray, &mut EveryHit::new(ray.tmax, f), counters);
         }
     }
