@@ -1,10 +1,11 @@
 //! The bodies of the fuzz targets in `fuzz/` (cargo-fuzz, libFuzzer), kept in the library so
 //! that `tests/fuzz_corpus.rs` replays the kept corpus and every crash found on the stable
-//! toolchain, through the same code. Each function panics only where hugrt is wrong: a loader
+//! toolchain, through the same code; and their oracle, [`assert_all_agree`], which the tests
+//! use too. Each function panics only where hugrt is wrong: a loader
 //! that panics, a loaded scene with a non-finite coordinate, or a structure whose closest
 //! hits differ from brute force's.
 
-use crate::accel::{AnyAccel, NoCounters};
+use crate::accel::{AnyAccel, Hit, NoCounters, Primitives};
 use crate::batch::{camera_rays, decode_rays, incoherent_rays};
 use crate::geometry::{Ray, Shape, Vec3};
 use crate::scene::Scene;
@@ -82,12 +83,23 @@ fn fixture() -> Scene {
 }
 
 fn check_structures(scene: &Scene, rays: &[Ray]) {
-    let brute = AnyAccel::build(scene, "brute").expect("brute force builds");
-    for spec in CHECKED {
-        let accel = AnyAccel::build(scene, spec).expect("a default spec builds");
-        for (k, ray) in rays.iter().enumerate() {
-            let want = brute.closest_hit(scene, ray, &mut NoCounters);
-            let got = accel.closest_hit(scene, ray, &mut NoCounters);
+    assert_all_agree(scene, CHECKED, rays);
+}
+
+/// Asserts that every structure `specs` names answers every ray like brute force: the same
+/// primitive or the same `t` (a tie), and any-hit finds a hit exactly when closest-hit does.
+/// The oracle of the fuzz targets and of the tests (`tests/common`), kept here once.
+pub fn assert_all_agree<P: Primitives, S: AsRef<str>>(prims: &P, specs: &[S], rays: &[Ray]) {
+    let brute = AnyAccel::build(prims, "brute").expect("brute force builds");
+    let want: Vec<Option<Hit>> = rays
+        .iter()
+        .map(|r| brute.closest_hit(prims, r, &mut NoCounters))
+        .collect();
+    for spec in specs {
+        let spec = spec.as_ref();
+        let accel = AnyAccel::build(prims, spec).unwrap_or_else(|e| panic!("{spec}: {e}"));
+        for (k, (ray, want)) in rays.iter().zip(&want).enumerate() {
+            let got = accel.closest_hit(prims, ray, &mut NoCounters);
             let same = match (want, got) {
                 (None, None) => true,
                 (Some(w), Some(g)) => w.prim == g.prim || w.t == g.t,
@@ -97,7 +109,7 @@ fn check_structures(scene: &Scene, rays: &[Ray]) {
                 same,
                 "{spec}: ray {k} {ray:?}: brute force {want:?}, {spec} {got:?}"
             );
-            let any = accel.any_hit(scene, ray, &mut NoCounters).is_some();
+            let any = accel.any_hit(prims, ray, &mut NoCounters).is_some();
             assert_eq!(any, want.is_some(), "{spec}: any-hit of ray {k} {ray:?}");
         }
     }

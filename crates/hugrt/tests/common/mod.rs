@@ -2,7 +2,7 @@
 //! brute force that every structure must pass.
 #![allow(dead_code)]
 
-use hugrt::accel::{AnyAccel, Hit, NoCounters, Primitives, STRUCTURES};
+use hugrt::accel::{Primitives, STRUCTURES};
 use hugrt::geometry::{Aabb, Cone, Ray, Shape, Sphere, Vec3};
 use hugrt::scene::Scene;
 use rand::{Rng, SeedableRng};
@@ -323,32 +323,8 @@ pub fn assert_agrees<P: Primitives>(prims: &P, spec: &str, rays: &[Ray]) {
     assert_all_agree(prims, &[spec.to_string()], rays);
 }
 
-/// [`assert_agrees`] for several structures, with brute force's answers computed once.
+/// [`assert_agrees`] for several structures, with brute force's answers computed once (the
+/// library's oracle, which the fuzz targets use too).
 pub fn assert_all_agree<P: Primitives>(prims: &P, specs: &[String], rays: &[Ray]) {
-    let brute = AnyAccel::build(prims, "brute").unwrap();
-    let want: Vec<Option<Hit>> = rays
-        .iter()
-        .map(|r| brute.closest_hit(prims, r, &mut NoCounters))
-        .collect();
-    for spec in specs {
-        let accel = AnyAccel::build(prims, spec).unwrap_or_else(|e| panic!("{spec}: {e}"));
-        for (i, (ray, want)) in rays.iter().zip(&want).enumerate() {
-            let got = accel.closest_hit(prims, ray, &mut NoCounters);
-            let same = match (want, got) {
-                (None, None) => true,
-                (Some(a), Some(b)) => a.prim == b.prim || a.t == b.t,
-                _ => false,
-            };
-            assert!(
-                same,
-                "{spec}: ray {i} {ray:?}: brute {want:?}, {spec} {got:?}"
-            );
-            let any = accel.any_hit(prims, ray, &mut NoCounters);
-            assert_eq!(
-                any.is_some(),
-                want.is_some(),
-                "{spec}: any-hit disagrees on ray {i} {ray:?}"
-            );
-        }
-    }
+    hugrt::fuzzing::assert_all_agree(prims, specs, rays);
 }
