@@ -161,7 +161,6 @@ pub(super) fn eg95_kitchens(o: &super::Options) -> Output {
         );
     }
     report.push_str(&verdicts(&rows));
-    let mut files = vec![("report.md", report)];
     let mut csv =
         String::from("set,scene,polygons,structure,spec,build_ms,render_ms,memory_mb,voxels,nu1\n");
     for r in &rows {
@@ -180,15 +179,12 @@ pub(super) fn eg95_kitchens(o: &super::Options) -> Output {
             r.nu1
         );
     }
-    files.push(("rows.csv", csv));
-    let json = serde_json::to_string_pretty(&serde_json::json!({
+    let data = serde_json::json!({
         "target": "eg95-kitchens",
         "image_side": side,
         "rows": rows,
         "failed": failed,
-    }))
-    .expect("serialisable");
-    files.push(("data.json", json + "\n"));
+    });
     let plots: [Figure; 6] = [
         (
             "fig11a-time-one-kitchen",
@@ -256,10 +252,7 @@ pub(super) fn eg95_kitchens(o: &super::Options) -> Output {
             categories: Vec::new(),
         });
     }
-    Output {
-        files,
-        plots: figures,
-    }
+    Output::new(report, vec![("rows.csv", csv)], data, figures)
 }
 
 /// The verdict on one of EG95's statements: the published ratio (written as `shown`), the

@@ -328,24 +328,19 @@ pub(super) fn havran_splits(o: &super::Options) -> Output {
             categories: scenes,
         },
     ];
-    let json = serde_json::to_string_pretty(&serde_json::json!({
-        "target": "havran-splits",
-        "image_side": side,
-        "methods": METHODS.iter().map(|m| m.1).collect::<Vec<_>>(),
-        "planes": planes,
-        "properties": properties,
-        "skipped": skipped,
-    }))
-    .expect("serialisable");
-    Output {
-        files: vec![
-            ("report.md", report),
-            ("planes.csv", planes_csv),
-            ("properties.csv", csv),
-            ("data.json", json + "\n"),
-        ],
+    Output::new(
+        report,
+        vec![("planes.csv", planes_csv), ("properties.csv", csv)],
+        serde_json::json!({
+            "target": "havran-splits",
+            "image_side": side,
+            "methods": METHODS.iter().map(|m| m.1).collect::<Vec<_>>(),
+            "planes": planes,
+            "properties": properties,
+            "skipped": skipped,
+        }),
         plots,
-    }
+    )
 }
 
 /// The verdicts, computed from the rows: Table 4's "often outside", and for Tables 5–6 that
@@ -756,23 +751,19 @@ pub(super) fn havran_layouts(o: &super::Options) -> Output {
             categories: names,
         });
     }
-    let json = serde_json::to_string_pretty(&serde_json::json!({
-        "target": "havran-layouts",
-        "scene": name,
-        "rays": rays,
-        "rows": rows,
-        "cachegrind": cache_note,
-        "problems": problems,
-    }))
-    .expect("serialisable");
-    Output {
-        files: vec![
-            ("report.md", report),
-            ("layouts.csv", csv),
-            ("data.json", json + "\n"),
-        ],
+    Output::new(
+        report,
+        vec![("layouts.csv", csv)],
+        serde_json::json!({
+            "target": "havran-layouts",
+            "scene": name,
+            "rays": rays,
+            "rows": rows,
+            "cachegrind": cache_note,
+            "problems": problems,
+        }),
         plots,
-    }
+    )
 }
 
 fn layout_verdicts(rows: &[LayoutRow]) -> String {

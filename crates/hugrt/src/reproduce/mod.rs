@@ -43,6 +43,23 @@ struct Output {
     plots: Vec<plot::Plot>,
 }
 
+impl Output {
+    /// A target's files: `report.md`, its CSV tables by name, and `data.json` (pretty, with a
+    /// final newline), with its plots.
+    fn new(
+        report: String,
+        tables: Vec<(&'static str, String)>,
+        data: serde_json::Value,
+        plots: Vec<plot::Plot>,
+    ) -> Output {
+        let json = serde_json::to_string_pretty(&data).expect("serialisable") + "\n";
+        let mut files = vec![("report.md", report)];
+        files.extend(tables);
+        files.push(("data.json", json));
+        Output { files, plots }
+    }
+}
+
 /// Every target, in the papers' order.
 pub const TARGETS: &[Target] = &[
     Target {

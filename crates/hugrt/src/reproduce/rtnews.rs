@@ -213,19 +213,15 @@ pub(super) fn rtnews_spd(o: &super::Options) -> Output {
             categories,
         },
     ];
-    let json = serde_json::to_string_pretty(&serde_json::json!({
-        "target": "rtnews-spd",
-        "image_side": side,
-        "rows": rows,
-        "skipped": missing,
-    }))
-    .expect("serialisable");
-    Output {
-        files: vec![
-            ("report.md", report),
-            ("rows.csv", csv),
-            ("data.json", json + "\n"),
-        ],
+    Output::new(
+        report,
+        vec![("rows.csv", csv)],
+        serde_json::json!({
+            "target": "rtnews-spd",
+            "image_side": side,
+            "rows": rows,
+            "skipped": missing,
+        }),
         plots,
-    }
+    )
 }

@@ -406,25 +406,20 @@ pub(super) fn scg97_levels(o: &super::Options) -> Output {
         );
     }
     let render_csv = super::csv_of(&render);
-    let json = serde_json::to_string_pretty(&serde_json::json!({
-        "target": "scg97-levels",
-        "scene": format!("builtin:kitchen:{size}"),
-        "image_side": side,
-        "levels": levels,
-        "rendering": render,
-        "times": times,
-        "failed": failed,
-    }))
-    .expect("serialisable");
-    Output {
-        files: vec![
-            ("report.md", report),
-            ("levels.csv", levels_csv),
-            ("rendering.csv", render_csv),
-            ("data.json", json + "\n"),
-        ],
+    Output::new(
+        report,
+        vec![("levels.csv", levels_csv), ("rendering.csv", render_csv)],
+        serde_json::json!({
+            "target": "scg97-levels",
+            "scene": format!("builtin:kitchen:{size}"),
+            "image_side": side,
+            "levels": levels,
+            "rendering": render,
+            "times": times,
+            "failed": failed,
+        }),
         plots,
-    }
+    )
 }
 
 /// A published cell as printed, or a dash where the paper has none.
@@ -791,21 +786,17 @@ pub(super) fn scg97_improved(o: &super::Options) -> Output {
         categories: Vec::new(),
     }];
     let csv = super::csv_of(&rows);
-    let json = serde_json::to_string_pretty(&serde_json::json!({
-        "target": "scg97-improved",
-        "image_side": side,
-        "rows": rows,
-        "failed": failed,
-    }))
-    .expect("serialisable");
-    Output {
-        files: vec![
-            ("report.md", report),
-            ("rows.csv", csv),
-            ("data.json", json + "\n"),
-        ],
+    Output::new(
+        report,
+        vec![("rows.csv", csv)],
+        serde_json::json!({
+            "target": "scg97-improved",
+            "image_side": side,
+            "rows": rows,
+            "failed": failed,
+        }),
         plots,
-    }
+    )
 }
 
 /// A scene's row of SCG97 Fig. 4.
@@ -957,24 +948,19 @@ pub(super) fn scg97_scenes(o: &super::Options) -> Output {
             percent_below_0_2: *p2,
         })
         .collect();
-    let json = serde_json::to_string_pretty(&serde_json::json!({
-        "target": "scg97-scenes",
-        "published": published,
-        "measured": rows,
-        "histogram_bins": BINS,
-        "histograms": rows.iter().zip(&histograms).map(|(r, h)| serde_json::json!({
-            "scene": r.scene, "percent": h.to_vec(),
-        })).collect::<Vec<_>>(),
-    }))
-    .expect("serialisable");
-    Output {
-        files: vec![
-            ("report.md", report),
-            ("scenes.csv", csv),
-            ("histogram.csv", hist),
-            ("data.json", json + "\n"),
-        ],
-        plots: vec![
+    Output::new(
+        report,
+        vec![("scenes.csv", csv), ("histogram.csv", hist)],
+        serde_json::json!({
+            "target": "scg97-scenes",
+            "published": published,
+            "measured": rows,
+            "histogram_bins": BINS,
+            "histograms": rows.iter().zip(&histograms).map(|(r, h)| serde_json::json!({
+                "scene": r.scene, "percent": h.to_vec(),
+            })).collect::<Vec<_>>(),
+        }),
+        vec![
             length_plot(
                 "lengths-histogram",
                 "Share of objects per 1% of the longest length (SCG97 Fig. 4)",
@@ -992,7 +978,7 @@ pub(super) fn scg97_scenes(o: &super::Options) -> Output {
                 true,
             ),
         ],
-    }
+    )
 }
 
 /// SCG97 Fig. 4's length charts: a curve per scene over the bins' upper ends (fractions of
