@@ -98,11 +98,9 @@ def render_tiled(
 
 
 def _measure(source, spec, rays, n, repeat, threads):
-    structure, _, keys = spec.partition(":")
-    settings = dict(kv.split("=", 1) for kv in keys.split(",") if kv)
     scene = _open(source)
     start = time.perf_counter()
-    accel = scene.build(structure, **settings)
+    accel = scene.build(spec)
     build = time.perf_counter() - start
     if rays == "camera":
         side = int(np.sqrt(n))

@@ -159,6 +159,7 @@ def test_settings_are_keywords_checked_by_the_structure():
     scene = hugrt.Scene.from_arrays(v, f)
     assert scene.build("hug", preset="eg95").spec == "hug:preset=eg95"
     assert scene.build("grid", density=8, simd=False).spec == "grid:density=8,simd=false"
+    assert scene.build("grid:density=8", simd=False).spec == "grid:density=8,simd=false"
     with pytest.raises(ValueError, match="no key 'nope'; valid keys"):
         scene.build("grid", nope=1)
     with pytest.raises(ValueError, match="unknown structure 'grd'"):

@@ -66,9 +66,10 @@ impl Scene {
         Ok(Scene::of(scene))
     }
 
-    /// Builds a structure over the scene: `structure` is one of `hugrt.structures()`, each
-    /// keyword one of its settings (`hugrt.settings(structure)`), e.g.
-    /// `scene.build("hug", preset="eg95")` or `scene.build("grid", density=8)`.
+    /// Builds a structure over the scene: `structure` is one of `hugrt.structures()` (or a
+    /// whole spec, `"grid:density=8"`, as the CLI takes it), each keyword one of its settings
+    /// (`hugrt.settings(structure)`), e.g. `scene.build("hug", preset="eg95")` or
+    /// `scene.build("grid", density=8)`.
     #[pyo3(signature = (structure, **settings))]
     fn build(
         &self,
@@ -162,7 +163,9 @@ fn spec_of(structure: &str, settings: Option<&Bound<'_, PyDict>>) -> PyResult<St
     let Some(settings) = settings else {
         return Ok(spec);
     };
-    for (i, (key, value)) in settings.iter().enumerate() {
+    // A structure given as a whole spec (`grid:density=8`) takes the keywords after its own.
+    let mut first = !structure.contains(':');
+    for (key, value) in settings.iter() {
         let key: String = key.extract()?;
         let value = if let Ok(b) = value.cast::<pyo3::types::PyBool>() {
             b.is_true().to_string()
@@ -174,7 +177,8 @@ fn spec_of(structure: &str, settings: Option<&Bound<'_, PyDict>>) -> PyResult<St
                 "setting {key}={value:?}: not a value of a structure's setting"
             )));
         }
-        spec.push(if i == 0 { ':' } else { ',' });
+        spec.push(if first { ':' } else { ',' });
+        first = false;
         spec.push_str(&format!("{key}={value}"));
     }
     Ok(spec)

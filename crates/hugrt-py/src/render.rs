@@ -1,7 +1,7 @@
 //! `Accel.render`: the SPD rendering as float radiance, whole or a band of rows.
 
 use super::{Accel, on_pool, pool};
-use hugrt::render::{MAX_SIDE, RenderSettings, render_rows};
+use hugrt::render::{RenderSettings, check_image, render_rows};
 use numpy::PyArray3;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -15,11 +15,8 @@ pub fn render<'py>(
     rows: Option<(u32, u32)>,
     threads: Option<usize>,
 ) -> PyResult<Bound<'py, PyArray3<f32>>> {
-    if !(1..=MAX_SIDE).contains(&width) || !(1..=MAX_SIDE).contains(&height) {
-        return Err(PyValueError::new_err(format!(
-            "an image of {width} × {height}: each side must be between 1 and {MAX_SIDE}"
-        )));
-    }
+    check_image(Some(width), Some(height), None)
+        .map_err(|e| PyValueError::new_err(e.to_string()))?;
     let (y0, y1) = rows.unwrap_or((0, height));
     if y0 >= y1 || y1 > height {
         return Err(PyValueError::new_err(format!(

@@ -695,3 +695,46 @@ fn obj_materials_come_from_the_mtl_beside_it() {
     assert!((0..5).all(|i| *s.material(i) == grey));
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// A glTF node graph walked without end is refused, not walked: a node that is its own child,
+/// and 21 levels of nodes each holding the next level twice (2^21 placements); and a buffer
+/// file that is not a regular file (a folder here, a device elsewhere) is refused, not read.
+#[test]
+fn gltf_node_cycles_shared_children_and_odd_buffer_files_are_refused() {
+    let tri = [Vec3::ZERO, Vec3::X, Vec3::Y];
+    let (json, _) = gltf_mesh(
+        &tri,
+        &[[0, 1, 2]],
+        &[r#"{"mesh": 0, "children": [0]}"#],
+        &[0],
+    );
+    let e = error_of("cycle.gltf", json.as_bytes());
+    assert!(
+        e.starts_with("cycle.gltf: glTF: nodes nested more than 256 deep or visited more than"),
+        "{e}"
+    );
+    let mut nodes: Vec<String> = (0..21)
+        .map(|k| format!(r#"{{"children": [{}, {}]}}"#, k + 1, k + 1))
+        .collect();
+    nodes.push(r#"{"mesh": 0}"#.to_string());
+    let refs: Vec<&str> = nodes.iter().map(String::as_str).collect();
+    let (json, _) = gltf_mesh(&tri, &[[0, 1, 2]], &refs, &[0]);
+    let e = error_of("shared.gltf", json.as_bytes());
+    assert!(
+        e.starts_with("shared.gltf: glTF: nodes nested more than 256 deep or visited more than"),
+        "{e}"
+    );
+    let dir = std::env::temp_dir().join(format!("hugrt-gltf-dir-{}", std::process::id()));
+    std::fs::create_dir_all(dir.join("buffer.bin")).unwrap();
+    let (json, _) = gltf_mesh(&tri, &[[0, 1, 2]], &[r#"{"mesh": 0}"#], &[0]);
+    let start = json.find("data:").unwrap();
+    let end = start + json[start..].find('"').unwrap();
+    std::fs::write(
+        dir.join("d.gltf"),
+        format!("{}buffer.bin{}", &json[..start], &json[end..]),
+    )
+    .unwrap();
+    let e = Scene::load(dir.join("d.gltf")).unwrap_err().to_string();
+    assert!(e.contains("not a regular file"), "{e}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

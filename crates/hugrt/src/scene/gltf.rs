@@ -11,7 +11,7 @@
 //! alpha below 1 (blend mode) is transmittance `1 − alpha` with index 1.5 (glTF's default).
 
 use super::{Material, Scene, SceneError};
-use crate::geometry::{Shape, Vec3};
+use crate::geometry::Vec3;
 use base64::Engine;
 use glam::Mat4;
 use std::path::Path;
@@ -157,7 +157,6 @@ pub fn parse(path: &str, data: &[u8]) -> Result<Scene, SceneError> {
         scene.materials = materials;
         scene.material_runs = runs;
     }
-    debug_assert!(scene.shapes.iter().all(|s| matches!(s, Shape::Triangle(_))));
     Ok(scene)
 }
 
