@@ -5,12 +5,15 @@
 //! target's baseline, so it needs no run-time detection), plain lane loops elsewhere
 //! ([`lanes_portable`], which the tests hold bit for bit to the SSE kernel).
 //!
-//! Both compute what the scalar test ([`intersect_triangle`]) computes, operation for
-//! operation and in the same order (no fused multiply-add), so a lane's numbers are the scalar
-//! test's bits. Lanes where an edge function is exactly zero, which the scalar test redoes in
-//! double precision, are handed back to it ([`Lanes::redo`]).
+//! Both compute the edge functions as the scalar test ([`intersect_triangle`]) computes them,
+//! operation for operation and in the same order (no fused multiply-add), so a lane's signs
+//! are the scalar test's; the caller takes a crossed lane's `t` from the scalar test's own
+//! [`crossing_t`], so a lane's hit is the scalar test's bits. Lanes where an edge function is
+//! exactly zero, which the scalar test redoes in double precision, are handed back to it
+//! ([`Lanes::redo`]).
 //!
 //! [`intersect_triangle`]: crate::geometry::intersect_triangle
+//! [`crossing_t`]: crate::geometry::crossing_t
 
 use crate::geometry::{PreparedRay, Vec3};
 
@@ -55,18 +58,17 @@ impl Block {
 /// What a block's test found, lane by lane (bit `l` of a mask is lane `l`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Lanes {
-    /// Lanes hit at `t[l]` within `[tmin, tmax]`, as the scalar test would report.
-    pub pass: u32,
+    /// Lanes whose triangle the ray crosses, as the scalar test finds before its `t`.
+    pub crossed: u32,
     /// Lanes with an edge function exactly zero: the scalar test decides those.
     pub redo: u32,
-    pub t: [f32; LANES],
 }
 
 /// The ray's numbers the test uses: origin and the shear rows of [`PreparedRay::rows`].
 #[derive(Clone, Copy)]
 pub struct BlockRay {
     o: [f32; 3],
-    rows: [[f32; 3]; 3],
+    rows: [[f32; 3]; 2],
 }
 
 impl BlockRay {
@@ -82,27 +84,26 @@ impl BlockRay {
 /// Tests the block's four lanes against the ray, with the arithmetic of the target's fastest
 /// kernel.
 #[inline(always)]
-pub fn lanes(b: &Block, ray: &BlockRay, tmin: f32, tmax: f32) -> Lanes {
+pub fn lanes(b: &Block, ray: &BlockRay) -> Lanes {
     #[cfg(target_arch = "x86_64")]
     {
-        lanes_sse(b, ray, tmin, tmax)
+        lanes_sse(b, ray)
     }
     #[cfg(not(target_arch = "x86_64"))]
     {
-        lanes_portable(b, ray, tmin, tmax)
+        lanes_portable(b, ray)
     }
 }
 
-/// The SSE kernel. It returns early, before the third row of the shear and the division,
-/// when no lane is crossed: the common case.
+/// The SSE kernel: the edge functions of four lanes at a time.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-fn lanes_sse(b: &Block, ray: &BlockRay, tmin: f32, tmax: f32) -> Lanes {
+fn lanes_sse(b: &Block, ray: &BlockRay) -> Lanes {
     use std::arch::x86_64::*;
     // SAFETY: SSE is part of every x86_64 target's baseline, so its intrinsics run on any
     // processor this code runs on. The loads read a block row, four f32 (16 bytes) at an
     // address aligned to 16 (`Block` is `align(16)` and its rows lie at multiples of 16 from
-    // its start); the store writes `out.t`, four f32, unaligned.
+    // its start).
     unsafe {
         let load = |row: &[f32; LANES]| _mm_load_ps(row.as_ptr());
         let s = |x: f32| _mm_set1_ps(x);
@@ -124,7 +125,7 @@ fn lanes_sse(b: &Block, ray: &BlockRay, tmin: f32, tmax: f32) -> Lanes {
                 _mm_mul_ps(s(r[2]), p[2]),
             )
         };
-        let [rx, ry, rz] = &ray.rows;
+        let [rx, ry] = &ray.rows;
         let (ax, ay) = (dot(rx, &p[0]), dot(ry, &p[0]));
         let (bx, by) = (dot(rx, &p[1]), dot(ry, &p[1]));
         let (cx, cy) = (dot(rx, &p[2]), dot(ry, &p[2]));
@@ -146,49 +147,22 @@ fn lanes_sse(b: &Block, ray: &BlockRay, tmin: f32, tmax: f32) -> Lanes {
             _mm_cmplt_ps(det_abs, s(f32::INFINITY)),
             _mm_cmpgt_ps(det_abs, zero),
         );
-        let crossed = _mm_andnot_ps(mixed, det_ok);
-        let mut out = Lanes {
-            pass: 0,
-            redo,
-            t: [0.0; LANES],
-        };
-        if _mm_movemask_ps(crossed) as u32 & !redo == 0 {
-            return out;
-        }
-        let (az, bz, cz) = (dot(rz, &p[0]), dot(rz, &p[1]), dot(rz, &p[2]));
-        let t_scaled = _mm_add_ps(
-            _mm_add_ps(_mm_mul_ps(u, az), _mm_mul_ps(v, bz)),
-            _mm_mul_ps(w, cz),
-        );
-        // Two-sided: in the sign of the determinant, as the scalar test flips it.
-        let sign = _mm_and_ps(det, s(-0.0));
-        let t_scaled = _mm_xor_ps(t_scaled, sign);
-        let t = _mm_div_ps(t_scaled, det_abs);
-        let (tmin, tmax) = (s(tmin), s(tmax));
-        let in_range = _mm_and_ps(
-            _mm_and_ps(
-                _mm_cmpge_ps(t_scaled, _mm_mul_ps(tmin, det_abs)),
-                _mm_cmple_ps(t_scaled, _mm_mul_ps(tmax, det_abs)),
-            ),
-            _mm_and_ps(_mm_cmpge_ps(t, tmin), _mm_cmple_ps(t, tmax)),
-        );
-        out.pass = _mm_movemask_ps(_mm_and_ps(crossed, in_range)) as u32 & !redo;
-        _mm_storeu_ps(out.t.as_mut_ptr(), t);
-        out
+        let crossed = _mm_movemask_ps(_mm_andnot_ps(mixed, det_ok)) as u32 & !redo;
+        Lanes { crossed, redo }
     }
 }
 
 /// The portable kernel: the same arithmetic, lane by lane.
 #[cfg_attr(target_arch = "x86_64", allow(dead_code))]
-pub fn lanes_portable(b: &Block, ray: &BlockRay, tmin: f32, tmax: f32) -> Lanes {
+pub fn lanes_portable(b: &Block, ray: &BlockRay) -> Lanes {
     let mut out = Lanes {
-        pass: 0,
+        crossed: 0,
         redo: 0,
-        t: [0.0; LANES],
     };
-    let [rx, ry, rz] = &ray.rows;
+    let [rx, ry] = &ray.rows;
+    let o = ray.o;
     for l in 0..LANES {
-        let p = [0, 1, 2].map(|k| [0, 1, 2].map(|a| b.v[k][a][l] - ray.o[a]));
+        let p = [0, 1, 2].map(|k| [0, 1, 2].map(|a| b.v[k][a][l] - o[a]));
         let dot = |r: &[f32; 3], p: &[f32; 3]| r[0] * p[0] + r[1] * p[1] + r[2] * p[2];
         let (ax, ay) = (dot(rx, &p[0]), dot(ry, &p[0]));
         let (bx, by) = (dot(rx, &p[1]), dot(ry, &p[1]));
@@ -204,22 +178,8 @@ pub fn lanes_portable(b: &Block, ray: &BlockRay, tmin: f32, tmax: f32) -> Lanes 
             continue;
         }
         let det = u + v + w;
-        if det == 0.0 || !det.is_finite() {
-            continue;
-        }
-        let t_scaled = u * dot(rz, &p[0]) + v * dot(rz, &p[1]) + w * dot(rz, &p[2]);
-        let (t_scaled, det_abs) = if det < 0.0 {
-            (-t_scaled, -det)
-        } else {
-            (t_scaled, det)
-        };
-        if t_scaled < tmin * det_abs || t_scaled > tmax * det_abs {
-            continue;
-        }
-        let t = t_scaled / det_abs;
-        if t >= tmin && t <= tmax {
-            out.pass |= 1 << l;
-            out.t[l] = t;
+        if det != 0.0 && det.is_finite() {
+            out.crossed |= 1 << l;
         }
     }
     out
@@ -228,7 +188,7 @@ pub fn lanes_portable(b: &Block, ray: &BlockRay, tmin: f32, tmax: f32) -> Lanes 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::{Ray, intersect_triangle};
+    use crate::geometry::{Ray, crossing_t, intersect_triangle};
     use proptest::prelude::*;
 
     /// Coordinates on a coarse lattice, so that edge functions are often exactly zero and
@@ -260,7 +220,7 @@ mod tests {
             }
             let ray = PreparedRay::new(&Ray::new(origin, dir, tmin, tmax));
             let br = BlockRay::new(&ray);
-            let portable = lanes_portable(&b, &br, tmin, tmax);
+            let portable = lanes_portable(&b, &br);
             for l in 0..LANES {
                 let scalar = if l < tris.len() {
                     intersect_triangle(&ray, &b.triangle(l), tmin, tmax)
@@ -268,18 +228,13 @@ mod tests {
                     None
                 };
                 if portable.redo >> l & 1 == 0 {
-                    let got = (portable.pass >> l & 1 != 0).then_some(portable.t[l]);
+                    let got = (portable.crossed >> l & 1 != 0)
+                        .then(|| crossing_t(&b.triangle(l), &ray.ray, tmin, tmax))
+                        .flatten();
                     prop_assert_eq!(got.map(f32::to_bits), scalar.map(f32::to_bits));
                 }
             }
-            let fast = lanes(&b, &br, tmin, tmax);
-            prop_assert_eq!(fast.pass, portable.pass);
-            prop_assert_eq!(fast.redo, portable.redo);
-            for l in 0..LANES {
-                if fast.pass >> l & 1 != 0 {
-                    prop_assert_eq!(fast.t[l].to_bits(), portable.t[l].to_bits());
-                }
-            }
+            prop_assert_eq!(lanes(&b, &br), portable);
         }
     }
 }

@@ -1,41 +1,27 @@
 //! Eight triangles against one ray at once (AVX2, chosen at run time), for the cells of the
 //! grid hierarchies, which hold a dozen triangles where a mesh crosses them.
 //!
-//! The lanes compute exactly what the scalar test ([`intersect_triangle`]) computes, operation
-//! for operation and in the same order (no fused multiply-add), so each lane's numbers are the
-//! scalar test's bits: the translated and sheared vertices, the edge functions `u, v, w`, the
-//! determinant and the scaled parameter. What depends on the running nearest hit (`tmax`) is
-//! left to the caller, who decides lane by lane in order, as the scalar loop would; lanes where
-//! an edge function is exactly zero, which the scalar test redoes in double precision, go to
-//! the scalar test. So a hit found eight at a time is the hit found one at a time.
+//! The lanes compute exactly what the scalar test ([`intersect_triangle`]) computes before its
+//! `t`, operation for operation and in the same order (no fused multiply-add), so each lane's
+//! numbers are the scalar test's bits: the translated and sheared vertices, the edge functions
+//! `u, v, w` and the determinant. The caller takes a crossed lane's `t` from the scalar test's
+//! own [`crossing_t`], with the running nearest hit (`tmax`) of the moment, lane by lane in
+//! order as the scalar loop would; lanes where an edge function is exactly zero, which the
+//! scalar test redoes in double precision, go to the scalar test. So a hit found eight at a
+//! time is the hit found one at a time.
 //!
 //! [`intersect_triangle`]: crate::geometry::intersect_triangle
+//! [`crossing_t`]: crate::geometry::crossing_t
 
 use crate::geometry::{PreparedRay, Vec3};
 
-/// The lanes of one batch: which passed the tests that do not depend on `tmax`, which need the
-/// scalar test, and the scaled parameter and determinant of each.
+/// The lanes of one batch: which the ray crosses, and which need the scalar test.
 pub struct Lanes {
     /// Lanes whose triangle the ray crosses (signs of `u, v, w` agree, determinant finite and
     /// not zero).
     pub crossed: u32,
     /// Lanes with an edge function exactly zero: the scalar test decides those.
     pub scalar: u32,
-    pub t_scaled: [f32; 8],
-    pub det_abs: [f32; 8],
-}
-
-impl Lanes {
-    /// The scalar test's last steps for lane `k`, with the `tmax` of the moment.
-    #[inline(always)]
-    pub fn hit(&self, k: usize, tmin: f32, tmax: f32) -> Option<f32> {
-        let (ts, da) = (self.t_scaled[k], self.det_abs[k]);
-        if ts < tmin * da || ts > tmax * da {
-            return None;
-        }
-        let t = ts / da;
-        (t >= tmin && t <= tmax).then_some(t)
-    }
 }
 
 /// Whether the running processor has what [`triangles8`] needs.
@@ -91,7 +77,7 @@ pub unsafe fn triangles8(tris: &[[Vec3; 3]], idx: &[u32; 8], ray: &PreparedRay) 
         };
     }
     let o = ray.ray.origin;
-    let [rx, ry, rz] = ray.rows;
+    let [rx, ry] = ray.rows;
     macro_rules! vertex {
         ($v:expr) => {
             [
@@ -130,25 +116,9 @@ pub unsafe fn triangles8(tris: &[[Vec3; 3]], idx: &[u32; 8], ray: &PreparedRay) 
         _mm256_cmp_ps::<_CMP_LT_OQ>(det_abs, s!(f32::INFINITY)),
         _mm256_cmp_ps::<_CMP_GT_OQ>(det_abs, zero),
     );
-    let (az, bz, cz) = (dot!(rz, a), dot!(rz, b), dot!(rz, c));
-    let t_scaled = _mm256_add_ps(
-        _mm256_add_ps(_mm256_mul_ps(u, az), _mm256_mul_ps(v, bz)),
-        _mm256_mul_ps(w, cz),
-    );
-    // Two-sided: in the sign of the determinant, as the scalar test flips it.
-    let neg = _mm256_cmp_ps::<_CMP_LT_OQ>(det, zero);
-    let t_scaled = _mm256_xor_ps(t_scaled, _mm256_and_ps(neg, s!(-0.0)));
     let crossed = _mm256_andnot_ps(_mm256_and_ps(some_neg, some_pos), det_ok);
-    let mut lanes = Lanes {
+    Lanes {
         crossed: _mm256_movemask_ps(_mm256_andnot_ps(eq_zero, crossed)) as u32,
         scalar: _mm256_movemask_ps(eq_zero) as u32,
-        t_scaled: [0.0; 8],
-        det_abs: [0.0; 8],
-    };
-    // SAFETY: both are arrays of eight f32; unaligned stores.
-    unsafe {
-        _mm256_storeu_ps(lanes.t_scaled.as_mut_ptr(), t_scaled);
-        _mm256_storeu_ps(lanes.det_abs.as_mut_ptr(), det_abs);
     }
-    lanes
 }

@@ -22,7 +22,7 @@
 use super::Frame;
 use super::sort::radix_sort_high32;
 use super::{Counters, HitSink, PrimitiveKind, Primitives, simd};
-use crate::geometry::{Aabb, Cone, PreparedRay, Sphere, Vec3, intersect_triangle};
+use crate::geometry::{Aabb, Cone, PreparedRay, Sphere, Vec3, crossing_t, intersect_triangle};
 use rayon::prelude::*;
 
 pub struct PrimStore {
@@ -247,7 +247,7 @@ impl PrimStore {
             let t = if lanes.scalar >> l & 1 != 0 {
                 self.intersect(prims, batch[l], ray, tmin, sink.tmax())
             } else {
-                lanes.hit(l, tmin, sink.tmax())
+                crossing_t(&self.tris[batch[l] as usize], &ray.ray, tmin, sink.tmax())
             };
             if let Some(t) = t {
                 counters.prim_hit(level);

@@ -16,8 +16,8 @@ pub use aabb::Aabb;
 pub use cone::Cone;
 pub use polygon::{newell_normal, triangulate_polygon};
 pub use ray::{PreparedRay, Ray};
-pub use shape::{Shape, SurfacePoint};
+pub use shape::{Shape, SurfacePoint, TINY_COORDINATE};
 pub use sphere::Sphere;
-pub use triangle::{barycentric, intersect_triangle};
+pub use triangle::{barycentric, crossing_t, intersect_triangle};
 
 pub use glam::Vec3;

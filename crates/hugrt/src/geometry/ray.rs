@@ -20,16 +20,29 @@ impl Ray {
         }
     }
 
-    /// Whether the ray can hit anything: finite origin, finite non-zero direction and an
-    /// interval `[tmin, tmax]` that is not empty or NaN (`tmax` may be infinite). Every query
-    /// returns no hit for other rays, rather than a garbage hit or a walk that never ends.
+    /// Whether the ray can hit anything: origin and non-zero direction with every component at
+    /// most [`Ray::MAX_COMPONENT`] in magnitude, and an interval `[tmin, tmax]` that is not
+    /// empty or NaN (`tmax` may be infinite). Every query returns no hit for other rays,
+    /// rather than a garbage hit or a walk that never ends.
     pub fn is_traceable(&self) -> bool {
-        self.origin.is_finite()
-            && self.dir.is_finite()
+        let within = |v: Vec3| v.is_finite() && v.abs().max_element() <= Self::MAX_COMPONENT;
+        within(self.origin)
+            && within(self.dir)
             && self.dir != Vec3::ZERO
             && self.tmin <= self.tmax
             && self.tmin < f32::INFINITY
     }
+
+    /// The largest origin or direction component a query takes: 2^64, about 1.8·10^19.
+    ///
+    /// Every triangle test first subtracts the origin from the vertices; from an origin at
+    /// 10^34 (the rays fuzz target's find) a unit cube's vertices all round to the same
+    /// point, and whether a grazing ray "hits" is decided by that rounding: brute force
+    /// reported a crossing at z = −2·10^−17, outside the cube, that the structures' box and
+    /// cell tests rightly did not. No single bound makes every scale exact (a ray from 10^19
+    /// at a unit cube has the same trouble), but past this one nothing is left of any scene a
+    /// renderer meets.
+    pub const MAX_COMPONENT: f32 = 18_446_744_073_709_551_616.0;
 
     /// The ray with each subnormal direction component (below 2^-126 in magnitude) made a
     /// zero of its sign, as every query takes it. Such a component's inverse overflows to
@@ -64,14 +77,15 @@ impl Ray {
 pub struct PreparedRay {
     pub ray: Ray,
     pub inv_dir: Vec3,
-    /// The axis permutation and shear as the rows of one matrix. `kz` is the axis where
+    /// The axis permutation and shear as the rows of one matrix, without its third row
+    /// (the hit's `t` is [`crossing_t`](super::crossing_t)'s, not the sheared `z`'s). `kz` is the axis where
     /// `|dir|` is largest, `kx` and `ky` follow it cyclically (swapped when `dir[kz] < 0`, to
-    /// keep the winding), and `(Sx, Sy, Sz) = (dir[kx]/dir[kz], dir[ky]/dir[kz], 1/dir[kz])`:
-    /// `rows[0] = e_kx − Sx·e_kz`, `rows[1] = e_ky − Sy·e_kz`, `rows[2] = Sz·e_kz`.
+    /// keep the winding), and `(Sx, Sy) = (dir[kx]/dir[kz], dir[ky]/dir[kz])`:
+    /// `rows[0] = e_kx − Sx·e_kz`, `rows[1] = e_ky − Sy·e_kz`.
     /// `rows[i].dot(p)` gives the same bits as the paper's `p[kx] − Sx·p[kz]` (the other
     /// products are by exact 1s and 0s, and the one rounded product and one rounded sum are
     /// the same), without indexing by a run-time axis, which costs a branch per component.
-    pub rows: [Vec3; 3],
+    pub rows: [Vec3; 2],
 }
 
 impl PreparedRay {
@@ -91,16 +105,34 @@ impl PreparedRay {
             std::mem::swap(&mut kx, &mut ky);
         }
         let sz = 1.0 / d[kz];
-        let shear = Vec3::new(d[kx] * sz, d[ky] * sz, sz);
+        let (sx, sy) = (d[kx] * sz, d[ky] * sz);
         let e = |k: usize| Vec3::AXES[k];
         PreparedRay {
             ray: *ray,
             inv_dir: Vec3::ONE / d,
-            rows: [
-                e(kx) - shear.x * e(kz),
-                e(ky) - shear.y * e(kz),
-                shear.z * e(kz),
-            ],
+            rows: [e(kx) - sx * e(kz), e(ky) - sy * e(kz)],
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn traceable_rays_have_components_within_the_bound() {
+        let ray = |o: Vec3, d: Vec3| Ray::new(o, d, 0.0, f32::INFINITY);
+        let max = Ray::MAX_COMPONENT;
+        assert!(ray(Vec3::splat(-max), Vec3::splat(max)).is_traceable());
+        let past = max * 2.0;
+        assert!(!ray(Vec3::new(0.0, past, 0.0), Vec3::X).is_traceable());
+        assert!(!ray(Vec3::ZERO, Vec3::new(0.0, 0.0, -past)).is_traceable());
+        for bad in [f32::NAN, f32::INFINITY] {
+            assert!(!ray(Vec3::new(bad, 0.0, 0.0), Vec3::X).is_traceable());
+            assert!(!ray(Vec3::ZERO, Vec3::new(1.0, bad, 0.0)).is_traceable());
+        }
+        assert!(!ray(Vec3::ZERO, Vec3::ZERO).is_traceable());
+        assert!(!Ray::new(Vec3::ZERO, Vec3::X, 2.0, 1.0).is_traceable());
+        assert!(!Ray::new(Vec3::ZERO, Vec3::X, f32::INFINITY, f32::INFINITY).is_traceable());
     }
 }

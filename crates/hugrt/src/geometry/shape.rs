@@ -25,7 +25,41 @@ pub struct SurfacePoint {
     pub shading_normal: Vec3,
 }
 
+/// Coordinates smaller than this in magnitude (2^-100, about 7.9·10^-31) are read as zero by
+/// [`Shape::with_tiny_coordinates_zeroed`].
+pub const TINY_COORDINATE: f32 = 7.888_609e-31;
+
 impl Shape {
+    /// The shape with every coordinate of its points below [`TINY_COORDINATE`] in magnitude
+    /// made zero (radii and normals are kept), as the loaders take them.
+    ///
+    /// Two coordinates at least 2^-100 apart from zero differ by zero or by at least 2^-123,
+    /// a normal float, so every vertex-minus-vertex and vertex-minus-origin difference of such
+    /// a scene keeps single precision's 24 bits. Below that, differences are subnormal and
+    /// lose bits one by one: the glTF fuzz target found scenes of triangles 10^-45 thick whose
+    /// sheared edge functions, all rounding, reported crossings far outside the scene's box
+    /// (brute force "hit" them; every structure's box test rightly did not).
+    pub fn with_tiny_coordinates_zeroed(&self) -> Shape {
+        let zeroed =
+            |p: Vec3| Vec3::select(p.abs().cmplt(Vec3::splat(TINY_COORDINATE)), Vec3::ZERO, p);
+        match *self {
+            Shape::Triangle(v) => Shape::Triangle(v.map(zeroed)),
+            Shape::Patch { v, normals } => Shape::Patch {
+                v: v.map(zeroed),
+                normals,
+            },
+            Shape::Sphere(s) => Shape::Sphere(Sphere {
+                center: zeroed(s.center),
+                ..s
+            }),
+            Shape::Cone(c) => Shape::Cone(Cone {
+                base: zeroed(c.base),
+                apex: zeroed(c.apex),
+                ..c
+            }),
+        }
+    }
+
     pub fn bounds(&self) -> Aabb {
         match self {
             Shape::Triangle(v) | Shape::Patch { v, .. } => Aabb::from_points(v),
@@ -133,6 +167,35 @@ fn triangle_overlaps_box(v: &[Vec3; 3], b: &Aabb) -> bool {
 mod tests {
     use super::*;
     use crate::geometry::Ray;
+
+    #[test]
+    fn tiny_coordinates_are_zeroed_and_others_kept() {
+        assert_eq!(TINY_COORDINATE, 2f32.powi(-100));
+        let t = Shape::Triangle([
+            Vec3::new(1e-45, -3e-40, TINY_COORDINATE),
+            Vec3::new(-TINY_COORDINATE * 0.99, 1.0, -2e-31),
+            Vec3::new(f32::MIN_POSITIVE, 1e-30, 0.0),
+        ]);
+        assert_eq!(
+            t.with_tiny_coordinates_zeroed(),
+            Shape::Triangle([
+                Vec3::new(0.0, 0.0, TINY_COORDINATE),
+                Vec3::new(0.0, 1.0, 0.0),
+                Vec3::new(0.0, 1e-30, 0.0),
+            ])
+        );
+        let s = Shape::Sphere(Sphere {
+            center: Vec3::new(1e-35, 2.0, 3.0),
+            radius: 1e-35,
+        });
+        assert_eq!(
+            s.with_tiny_coordinates_zeroed(),
+            Shape::Sphere(Sphere {
+                center: Vec3::new(0.0, 2.0, 3.0),
+                radius: 1e-35,
+            })
+        );
+    }
 
     fn prep(o: Vec3, d: Vec3) -> PreparedRay {
         PreparedRay::new(&Ray::new(o, d, 0.0, f32::INFINITY))

@@ -1,4 +1,4 @@
-use super::PreparedRay;
+use super::{PreparedRay, Ray};
 use glam::{DVec3, Vec3};
 
 /// Watertight, two-sided ray/triangle test of Woop, Benthin and Wald (JCGT 2013), §3:
@@ -7,11 +7,14 @@ use glam::{DVec3, Vec3};
 /// one of them rounds to zero, so a ray through a shared edge or vertex hits at least one of
 /// the triangles that share it.
 ///
+/// Where the ray crosses is [`crossing_t`]'s, in double precision: a departure from the
+/// paper, whose single-precision `t` is wrong on far slivers (see there).
+///
 /// Returns the hit parameter `t` in `[tmin, tmax]`. A degenerate triangle (zero area seen along
 /// the ray) never reports a hit.
 #[inline]
 pub fn intersect_triangle(r: &PreparedRay, v: &[Vec3; 3], tmin: f32, tmax: f32) -> Option<f32> {
-    let [rx, ry, rz] = r.rows;
+    let [rx, ry] = r.rows;
     let o = r.ray.origin;
     let a = v[0] - o;
     let b = v[1] - o;
@@ -40,20 +43,29 @@ pub fn intersect_triangle(r: &PreparedRay, v: &[Vec3; 3], tmin: f32, tmax: f32) 
     if det == 0.0 || !det.is_finite() {
         return None;
     }
-    let az = rz.dot(a);
-    let bz = rz.dot(b);
-    let cz = rz.dot(c);
-    let t_scaled = u * az + vv * bz + w * cz;
-    // Two-sided: compare in the sign of `det` without dividing first.
-    let (t_scaled, det_abs) = if det < 0.0 {
-        (-t_scaled, -det)
-    } else {
-        (t_scaled, det)
-    };
-    if t_scaled < tmin * det_abs || t_scaled > tmax * det_abs {
-        return None;
-    }
-    let t = t_scaled / det_abs;
+    crossing_t(v, &r.ray, tmin, tmax)
+}
+
+/// Where a ray that the edge functions found crossing triangle `v` meets its plane, if that
+/// is in `[tmin, tmax]`: `n·(v0 − o) / n·d` for the normal `n = (v1 − v0) × (v2 − v0)`, in
+/// double precision, rounded once to single.
+///
+/// Woop et al. take `t` from the same sheared coordinates as the edge functions,
+/// `(u·az + v·bz + w·cz) / det` in single precision. On a long sliver far from the origin (a
+/// vertex at 10^4 beside two near 1, the ray starting at 10^3) the sum cancels: fuzzing
+/// found it giving `t > 0` for a crossing behind the origin, and `t` ten times too small, at
+/// points outside the triangle's box, which brute force reports and no structure reaches.
+/// Here the differences of single-precision vertices are exact in double precision and
+/// their products nearly so, so `t` keeps its sign and its digits unless the ray runs
+/// within rounding of the plane.
+///
+/// Every kernel (the scalar test, the bvh's blocks, the grids' eight lanes) calls this one
+/// function for the lanes it finds crossed, so a hit has the same bits whichever finds it.
+#[inline]
+pub fn crossing_t(v: &[Vec3; 3], ray: &Ray, tmin: f32, tmax: f32) -> Option<f32> {
+    let [a, b, c] = v.map(|x| x.as_dvec3());
+    let n = (b - a).cross(c - a);
+    let t = (n.dot(a - ray.origin.as_dvec3()) / n.dot(ray.dir.as_dvec3())) as f32;
     (t >= tmin && t <= tmax).then_some(t)
 }
 

@@ -225,7 +225,7 @@ impl Scene {
         } else {
             data
         };
-        if stem.ends_with(".nff") {
+        let parsed = if stem.ends_with(".nff") {
             nff::parse(&name, data)
         } else if stem.ends_with(".ply") {
             ply::parse(&name, data)
@@ -237,12 +237,26 @@ impl Scene {
             gltf::parse(&name, data)
         } else {
             Err(SceneError::UnknownFormat { path: name })
+        };
+        parsed.map(Scene::with_tiny_coordinates_zeroed)
+    }
+
+    /// The scene with its shapes' tiny coordinates made zero
+    /// ([`Shape::with_tiny_coordinates_zeroed`]): what every loader and
+    /// [`Scene::from_triangles`] hand out.
+    pub fn with_tiny_coordinates_zeroed(mut self) -> Scene {
+        for s in &mut self.shapes {
+            *s = s.with_tiny_coordinates_zeroed();
         }
+        self
     }
 
     /// A triangle mesh with one default material, one light at the eye, and the framing camera.
     pub fn from_triangles(triangles: Vec<[Vec3; 3]>) -> Scene {
-        let shapes: Vec<Shape> = triangles.into_iter().map(Shape::Triangle).collect();
+        let shapes: Vec<Shape> = triangles
+            .into_iter()
+            .map(|v| Shape::Triangle(v).with_tiny_coordinates_zeroed())
+            .collect();
         let mut scene = Scene {
             shapes,
             material_runs: vec![(0, 0)],

@@ -4,7 +4,7 @@
 use super::block::{self, Block, BlockRay, EMPTY_LANE};
 use super::{Bvh, LEAF, LEAF_START_BITS, NO_CHILD, Node, OTHER_LANE, STACK, WIDTH};
 use crate::accel::{Counters, HitSink, Primitives};
-use crate::geometry::{PreparedRay, Ray, Vec3, intersect_triangle};
+use crate::geometry::{PreparedRay, Ray, Vec3, crossing_t, intersect_triangle};
 
 impl Bvh {
     /// Bytes of the nodes and leaf references, without the store.
@@ -13,13 +13,11 @@ impl Bvh {
             + self.blocks.capacity() * std::mem::size_of::<Block>()
     }
 
-    /// Tests the four primitives of `b`: the triangles together ([`block::lanes`], the scalar
-    /// test's bits lane by lane), the lanes it hands back and the lanes of other primitives
-    /// one at a time. Returns `true` when the sink stops the walk.
-    ///
-    /// Lanes pass or fail against the nearest hit as it was when the block began, then offer
-    /// their hits in lane order: the nearest of them is the one a test one at a time would
-    /// keep, and a tie goes to the lower index either way.
+    /// Tests the four primitives of `b`: the triangles' edge functions together
+    /// ([`block::lanes`], the scalar test's bits lane by lane), then in lane order the `t` of
+    /// each lane crossed ([`crossing_t`], with the nearest hit of the moment), the lanes it
+    /// hands back and the lanes of other primitives, one at a time, as a test one at a time
+    /// would. Returns `true` when the sink stops the walk.
     #[inline(always)]
     fn test_block<P: Primitives, C: Counters, S: HitSink>(
         &self,
@@ -30,7 +28,7 @@ impl Bvh {
         sink: &mut S,
         counters: &mut C,
     ) -> bool {
-        let lanes = block::lanes(b, bray, tmin, sink.tmax());
+        let lanes = block::lanes(b, bray);
         for &id in &b.ids {
             if id != EMPTY_LANE {
                 counters.prim_test(0);
@@ -43,14 +41,14 @@ impl Bvh {
             }
         }
         // Lanes of other primitives have NaN vertices: they neither pass nor need redoing.
-        let (pass, t) = (lanes.pass, lanes.t);
-        let mut todo = pass | lanes.redo | others;
+        let crossed = lanes.crossed;
+        let mut todo = crossed | lanes.redo | others;
         while todo != 0 {
             let l = todo.trailing_zeros() as usize;
             todo &= todo - 1;
             let id = b.ids[l];
-            let (hit, prim) = if pass >> l & 1 != 0 {
-                (Some(t[l]), id)
+            let (hit, prim) = if crossed >> l & 1 != 0 {
+                (crossing_t(&b.triangle(l), &ray.ray, tmin, sink.tmax()), id)
             } else if others >> l & 1 != 0 {
                 let s = id & !OTHER_LANE;
                 (
