@@ -78,6 +78,37 @@ pub fn parse(path: &str, data: &[u8]) -> Result<Scene, SceneError> {
             }
             let what = || format!("mesh {} primitive {}", mesh.index(), prim.index());
             let reader = prim.reader(|b| buffers.get(b.index()).map(|v| &v[..]));
+            // The crate reads POSITION as three f32 whatever the accessor says, and asserts
+            // (panics) when a view's stride is shorter than that (the gltf fuzz target's find):
+            // the type and the stride are checked here first.
+            if let Some(a) = prim.get(&gltf::Semantic::Positions) {
+                use gltf::accessor::{DataType, Dimensions};
+                if a.data_type() != DataType::F32 || a.dimensions() != Dimensions::Vec3 {
+                    return Err(bad(format!(
+                        "{}: POSITION (accessor {}) is {:?} {:?}, not VEC3 of FLOAT",
+                        what(),
+                        a.index(),
+                        a.dimensions(),
+                        a.data_type()
+                    )));
+                }
+            }
+            for a in prim
+                .get(&gltf::Semantic::Positions)
+                .into_iter()
+                .chain(prim.indices())
+            {
+                if let Some(stride) = a.view().and_then(|v| v.stride())
+                    && stride < a.size()
+                {
+                    return Err(bad(format!(
+                        "{}: accessor {} has a byte stride of {stride}, shorter than its {}-byte elements",
+                        what(),
+                        a.index(),
+                        a.size()
+                    )));
+                }
+            }
             let Some(positions) = reader.read_positions() else {
                 return Err(bad(format!("{}: no readable POSITION", what())));
             };
