@@ -77,9 +77,9 @@ impl Ray {
 pub struct PreparedRay {
     pub ray: Ray,
     pub inv_dir: Vec3,
-    /// The axis permutation and shear as the rows of one matrix, without its third row
-    /// (the hit's `t` is [`crossing_t`](super::crossing_t)'s, not the sheared `z`'s). `kz` is the axis where
-    /// `|dir|` is largest, `kx` and `ky` follow it cyclically (swapped when `dir[kz] < 0`, to
+    /// The axis permutation and shear as the rows of one matrix, without its third row (the
+    /// hit's `t` is [`crossing_t`](super::crossing_t)'s, not the sheared `z`'s). `kz` is the
+    /// axis where `|dir|` is largest, `kx` and `ky` follow it cyclically (swapped when `dir[kz] < 0`, to
     /// keep the winding), and `(Sx, Sy) = (dir[kx]/dir[kz], dir[ky]/dir[kz])`:
     /// `rows[0] = e_kx − Sx·e_kz`, `rows[1] = e_ky − Sy·e_kz`.
     /// `rows[i].dot(p)` gives the same bits as the paper's `p[kx] − Sx·p[kz]` (the other

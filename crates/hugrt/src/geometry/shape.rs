@@ -33,7 +33,7 @@ impl Shape {
     /// The shape with every coordinate of its points below [`TINY_COORDINATE`] in magnitude
     /// made zero (radii and normals are kept), as the loaders take them.
     ///
-    /// Two coordinates at least 2^-100 apart from zero differ by zero or by at least 2^-123,
+    /// Two coordinates each zero or at least 2^-100 in magnitude differ by zero or by at least 2^-123,
     /// a normal float, so every vertex-minus-vertex and vertex-minus-origin difference of such
     /// a scene keeps single precision's 24 bits. Below that, differences are subnormal and
     /// lose bits one by one: the glTF fuzz target found scenes of triangles 10^-45 thick whose

@@ -78,37 +78,7 @@ pub fn parse(path: &str, data: &[u8]) -> Result<Scene, SceneError> {
             }
             let what = || format!("mesh {} primitive {}", mesh.index(), prim.index());
             let reader = prim.reader(|b| buffers.get(b.index()).map(|v| &v[..]));
-            // The crate reads POSITION as three f32 whatever the accessor says, and asserts
-            // (panics) when a view's stride is shorter than that (the gltf fuzz target's find):
-            // the type and the stride are checked here first.
-            if let Some(a) = prim.get(&gltf::Semantic::Positions) {
-                use gltf::accessor::{DataType, Dimensions};
-                if a.data_type() != DataType::F32 || a.dimensions() != Dimensions::Vec3 {
-                    return Err(bad(format!(
-                        "{}: POSITION (accessor {}) is {:?} {:?}, not VEC3 of FLOAT",
-                        what(),
-                        a.index(),
-                        a.dimensions(),
-                        a.data_type()
-                    )));
-                }
-            }
-            for a in prim
-                .get(&gltf::Semantic::Positions)
-                .into_iter()
-                .chain(prim.indices())
-            {
-                if let Some(stride) = a.view().and_then(|v| v.stride())
-                    && stride < a.size()
-                {
-                    return Err(bad(format!(
-                        "{}: accessor {} has a byte stride of {stride}, shorter than its {}-byte elements",
-                        what(),
-                        a.index(),
-                        a.size()
-                    )));
-                }
-            }
+            readable(&prim).map_err(|r| bad(format!("{}: {r}", what())))?;
             let Some(positions) = reader.read_positions() else {
                 return Err(bad(format!("{}: no readable POSITION", what())));
             };
@@ -120,17 +90,6 @@ pub fn parse(path: &str, data: &[u8]) -> Result<Scene, SceneError> {
                     "{}: vertex {i} is NaN or infinite (after its node's transform)",
                     what()
                 )));
-            }
-            if let Some(a) = prim.indices() {
-                use gltf::accessor::DataType;
-                if !matches!(a.data_type(), DataType::U8 | DataType::U16 | DataType::U32) {
-                    return Err(bad(format!(
-                        "{}: indices (accessor {}) are {:?}, not an unsigned integer type",
-                        what(),
-                        a.index(),
-                        a.data_type()
-                    )));
-                }
             }
             let indices: Vec<u32> = match (prim.indices(), reader.read_indices()) {
                 (_, Some(i)) => i.into_u32().collect(),
@@ -222,6 +181,45 @@ fn attributes_in_range(json: &gltf::json::Root) -> Result<(), String> {
                     a.value()
                 ));
             }
+        }
+    }
+    Ok(())
+}
+
+/// Refuses what the `gltf` crate's readers would panic on (the gltf fuzz target's finds): it
+/// reads POSITION as three f32 whatever the accessor says and asserts when a view's stride
+/// is shorter than that, and reaches `unreachable!` on indices of a float type.
+fn readable(prim: &gltf::Primitive) -> Result<(), String> {
+    use gltf::accessor::{DataType, Dimensions};
+    let position = prim.get(&gltf::Semantic::Positions);
+    if let Some(a) = &position
+        && (a.data_type() != DataType::F32 || a.dimensions() != Dimensions::Vec3)
+    {
+        return Err(format!(
+            "POSITION (accessor {}) is {:?} {:?}, not VEC3 of FLOAT",
+            a.index(),
+            a.dimensions(),
+            a.data_type()
+        ));
+    }
+    if let Some(a) = prim.indices()
+        && !matches!(a.data_type(), DataType::U8 | DataType::U16 | DataType::U32)
+    {
+        return Err(format!(
+            "indices (accessor {}) are {:?}, not an unsigned integer type",
+            a.index(),
+            a.data_type()
+        ));
+    }
+    for a in position.into_iter().chain(prim.indices()) {
+        if let Some(stride) = a.view().and_then(|v| v.stride())
+            && stride < a.size()
+        {
+            return Err(format!(
+                "accessor {} has a byte stride of {stride}, shorter than its {}-byte elements",
+                a.index(),
+                a.size()
+            ));
         }
     }
     Ok(())

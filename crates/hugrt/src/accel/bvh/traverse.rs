@@ -40,7 +40,7 @@ impl Bvh {
                 others |= ((id != EMPTY_LANE && id & OTHER_LANE != 0) as u32) << l;
             }
         }
-        // Lanes of other primitives have NaN vertices: they neither pass nor need redoing.
+        // Lanes of other primitives have NaN vertices: they are never crossed nor need redoing.
         let crossed = lanes.crossed;
         let mut todo = crossed | lanes.redo | others;
         while todo != 0 {
