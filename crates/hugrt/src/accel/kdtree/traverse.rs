@@ -40,15 +40,20 @@ impl KdTree {
                         below,
                         above,
                     } => {
-                        let below_first = o[axis] < split || (o[axis] == split && d[axis] <= 0.0);
+                        // The side the ray is on before it crosses the plane, in increasing `t`:
+                        // by the direction, not by the origin, since `[tn, tf]` may begin
+                        // behind the origin (a negative `tmin`). Parallel to the plane, the
+                        // origin's side.
+                        let below_first = d[axis] > 0.0 || (d[axis] == 0.0 && o[axis] <= split);
                         let (first, second) = if below_first {
                             (below, above)
                         } else {
                             (above, below)
                         };
                         let ts = (split - o[axis]) * inv[axis];
-                        // NaN (the ray lies in the plane) visits the first side only.
-                        if ts > tf || ts <= 0.0 || ts.is_nan() {
+                        // A ray parallel to the plane (`ts` infinite of either sign, or NaN in
+                        // the plane) stays on the first side; no other `ts` is NaN.
+                        if ts > tf || d[axis] == 0.0 {
                             node = first;
                         } else if ts < tn {
                             node = second;
