@@ -5,15 +5,29 @@
 mod common;
 
 use common::*;
-use hugrt::accel::{AnyAccel, Hit, NoCounters, Primitives};
+use hugrt::accel::{AnyAccel, Hit, NoCounters, Primitives, Reach};
 use hugrt::geometry::{PreparedRay, Ray, Shape, Vec3};
 use hugrt::scene::Scene;
 use std::ops::ControlFlow;
 
-/// Every hit of every primitive, straight from the primitives' own tests, sorted.
+/// Every hit of every primitive, straight from the primitives' own tests, sorted; a ray from
+/// far away is first moved to the scene, as the structures move it ([`Reach`]).
 fn brute_all_hits<P: Primitives>(prims: &P, ray: &Ray) -> Vec<Hit> {
     if !ray.is_traceable() {
         return Vec::new();
+    }
+    let ray = &ray.without_subnormal_direction();
+    let reach = Reach::of(prims);
+    if !reach.is_near(ray) {
+        let Some(m) = reach.moved(ray) else {
+            return Vec::new();
+        };
+        let mut hits: Vec<Hit> = brute_all_hits(prims, &m.ray)
+            .into_iter()
+            .map(|h| m.hit(h))
+            .collect();
+        hits.sort_by(Hit::order);
+        return hits;
     }
     let pr = PreparedRay::new(ray);
     let mut hits: Vec<Hit> = (0..prims.len())

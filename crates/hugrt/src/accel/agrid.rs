@@ -227,6 +227,10 @@ impl Accel for AdaptiveGrid {
         });
     }
 
+    fn reach(&self) -> &crate::accel::Reach {
+        self.grids.store.reach()
+    }
+
     fn memory_bytes(&self) -> usize {
         std::mem::size_of::<Self>() + self.grids.memory_bytes() + self.tree.memory_bytes()
     }

@@ -8,6 +8,7 @@ use crate::geometry::{Aabb, PreparedRay, Ray};
 
 pub struct Brute {
     len: usize,
+    reach: super::Reach,
     /// Volume of the primitives' bounding box: brute force's one cell.
     volume: f64,
 }
@@ -21,6 +22,7 @@ impl Accel for Brute {
         let volume = if b.is_empty() { 0.0 } else { b.volume() as f64 };
         Ok(Brute {
             len: prims.len(),
+            reach: super::Reach::of(prims),
             volume,
         })
     }
@@ -42,6 +44,10 @@ impl Accel for Brute {
                 }
             }
         }
+    }
+
+    fn reach(&self) -> &crate::accel::Reach {
+        &self.reach
     }
 
     fn memory_bytes(&self) -> usize {

@@ -25,6 +25,7 @@ mod mailbox;
 mod margin;
 mod octree;
 mod query;
+mod reach;
 mod rgrid;
 pub mod settings;
 mod simd;
@@ -47,6 +48,7 @@ pub use kdtree::{KdTree, KdTreeSettings, Layout as KdTreeLayout, SplitRule as Kd
 pub use mailbox::Mailbox;
 pub use octree::{Octree, OctreeSettings};
 pub use query::{AnyHit, Closest, EveryHit, Hit, HitSink};
+pub use reach::Reach;
 pub use rgrid::{RecursiveGrid, RecursiveGridSettings};
 pub use settings::{KeyHelp, NoSettings, Settings};
 pub use spec::{Preset, Spec, SpecError};
@@ -71,6 +73,7 @@ pub mod presets {
 pub use store::PrimStore;
 
 use crate::geometry::{Aabb, Cone, PreparedRay, Ray, Sphere, Vec3};
+use glam::DVec3;
 
 /// What a primitive is, for structures that keep their own compact copy of it
 /// ([`PrimStore`]). `Opaque` primitives are kept by index and intersected through
@@ -123,17 +126,49 @@ pub struct HitDetails {
 
 impl Hit {
     /// The hit's barycentrics and normal, for the ray that found it.
+    ///
+    /// The hit point is found again in double precision on the ray's line, not taken as
+    /// `origin + t·dir` in single precision: the point at the rounded `t` (one rounding, a
+    /// fused multiply-add, so on the line to an ulp of itself), then, for a triangle, the
+    /// line's crossing of its plane and, for a sphere, the line's nearest crossing of it from
+    /// there. A ray from far away ([`Reach`]) thus gets barycentrics and normals as accurate as
+    /// a near one's, where the single-precision point would stray by `2⁻²⁴` of its distance.
     pub fn details<P: Primitives>(&self, prims: &P, ray: &Ray) -> HitDetails {
-        let p = ray.at(self.t);
+        let d = ray.dir.as_dvec3();
+        let at_t = d.mul_add(DVec3::splat(self.t as f64), ray.origin.as_dvec3());
         let (u, v, normal) = match prims.kind(self.prim as usize) {
             PrimitiveKind::Triangle(tri) => {
-                let b = crate::geometry::barycentric(&tri, p);
-                let (u, v) = (b.y, b.z);
-                let n = (tri[1] - tri[0]).cross(tri[2] - tri[0]).normalize_or_zero();
-                (u, v, n)
+                let [a, b, c] = tri.map(|x| x.as_dvec3());
+                let n = (b - a).cross(c - a);
+                let along = n.dot(d);
+                let p = if along == 0.0 {
+                    at_t
+                } else {
+                    d.mul_add(DVec3::splat(n.dot(a - at_t) / along), at_t)
+                };
+                let w = crate::geometry::barycentric(&tri, p.as_vec3());
+                (w.y, w.z, n.normalize_or_zero().as_vec3())
             }
-            PrimitiveKind::Sphere(s) => (0.0, 0.0, (p - s.center).normalize_or_zero()),
-            PrimitiveKind::Cone(c) => (0.0, 0.0, c.normal(p)),
+            PrimitiveKind::Sphere(s) => {
+                // `|w + step·d|² = r²`, the root of least magnitude in its stable form;
+                // the closest approach when rounding leaves the line just outside.
+                let centre = s.center.as_dvec3();
+                let w = at_t - centre;
+                let (dd, b) = (d.dot(d), w.dot(d));
+                let cc = w.dot(w) - (s.radius as f64).powi(2);
+                let disc = b * b - dd * cc;
+                let far_root = -(b + disc.max(0.0).sqrt().copysign(b));
+                let step = if disc < 0.0 {
+                    -b / dd
+                } else if far_root == 0.0 {
+                    0.0
+                } else {
+                    cc / far_root
+                };
+                let p = d.mul_add(DVec3::splat(step), at_t);
+                (0.0, 0.0, (p - centre).normalize_or_zero().as_vec3())
+            }
+            PrimitiveKind::Cone(c) => (0.0, 0.0, c.normal(at_t.as_vec3())),
             PrimitiveKind::Opaque => (0.0, 0.0, Vec3::ZERO),
         };
         HitDetails {
@@ -254,6 +289,9 @@ pub trait Accel: Sized + Send + Sync {
         counters: &mut C,
     );
 
+    /// Where the primitives lie: far rays are moved to them before the walk ([`Reach`]).
+    fn reach(&self) -> &Reach;
+
     /// The nearest hit in the ray's `[tmin, tmax]`; none for a ray that is not traceable.
     #[inline]
     fn closest_hit<P: Primitives, C: Counters>(
@@ -266,6 +304,9 @@ pub trait Accel: Sized + Send + Sync {
             return None;
         }
         let ray = &ray.without_subnormal_direction();
+        if !self.reach().is_near(ray) {
+            return far_closest_hit(self, prims, ray, counters);
+        }
         let mut sink = Closest::new(ray.tmax);
         self.query(prims, ray, &mut sink, counters);
         sink.hit()
@@ -284,6 +325,9 @@ pub trait Accel: Sized + Send + Sync {
             return None;
         }
         let ray = &ray.without_subnormal_direction();
+        if !self.reach().is_near(ray) {
+            return far_any_hit(self, prims, ray, counters);
+        }
         let mut sink = AnyHit::new(ray.tmax);
         self.query(prims, ray, &mut sink, counters);
         sink.hit()
@@ -304,11 +348,17 @@ pub trait Accel: Sized + Send + Sync {
         prims: &P,
         ray: &Ray,
         counters: &mut C,
-        f: F,
+        mut f: F,
     ) {
-        if ray.is_traceable() {
-            let ray = &ray.without_subnormal_direction();
+        if !ray.is_traceable() {
+            return;
+        }
+        let ray = &ray.without_subnormal_direction();
+        if self.reach().is_near(ray) {
             self.query(prims, ray, &mut EveryHit::new(ray.tmax, f), counters);
+        } else if let Some(m) = self.reach().moved(ray) {
+            let sink = &mut EveryHit::new(m.ray.tmax, |h| f(m.hit(h)));
+            self.query(prims, &m.ray, sink, counters);
         }
     }
 
@@ -334,6 +384,36 @@ pub trait Accel: Sized + Send + Sync {
     fn memory_bytes(&self) -> usize;
 
     fn stats(&self) -> StructureStats;
+}
+
+/// [`Accel::closest_hit`] for a ray from far away, moved to the scene first ([`Reach`]).
+#[cold]
+#[inline(never)]
+fn far_closest_hit<A: Accel, P: Primitives, C: Counters>(
+    accel: &A,
+    prims: &P,
+    ray: &Ray,
+    counters: &mut C,
+) -> Option<Hit> {
+    let m = accel.reach().moved(ray)?;
+    let mut sink = Closest::new(m.ray.tmax);
+    accel.query(prims, &m.ray, &mut sink, counters);
+    sink.hit().map(|h| m.hit(h))
+}
+
+/// [`Accel::any_hit`] for a ray from far away ([`Reach`]).
+#[cold]
+#[inline(never)]
+fn far_any_hit<A: Accel, P: Primitives, C: Counters>(
+    accel: &A,
+    prims: &P,
+    ray: &Ray,
+    counters: &mut C,
+) -> Option<Hit> {
+    let m = accel.reach().moved(ray)?;
+    let mut sink = AnyHit::new(m.ray.tmax);
+    accel.query(prims, &m.ray, &mut sink, counters);
+    sink.hit().map(|h| m.hit(h))
 }
 
 /// Declares the list of structures: generates [`AnyAccel`] and [`STRUCTURES`].

@@ -243,6 +243,10 @@ impl Accel for RecursiveGrid {
         self.cut.grids.query(prims, ray, sink, counters);
     }
 
+    fn reach(&self) -> &crate::accel::Reach {
+        self.cut.grids.store.reach()
+    }
+
     fn memory_bytes(&self) -> usize {
         std::mem::size_of::<Self>() + self.cut.grids.memory_bytes()
     }

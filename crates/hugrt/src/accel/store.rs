@@ -21,7 +21,7 @@
 
 use super::Frame;
 use super::sort::radix_sort_high32;
-use super::{Counters, HitSink, PrimitiveKind, Primitives, simd};
+use super::{Counters, HitSink, PrimitiveKind, Primitives, Reach, simd};
 use crate::geometry::{Aabb, Cone, PreparedRay, Sphere, Vec3, crossing_t, intersect_triangle};
 use rayon::prelude::*;
 
@@ -35,6 +35,8 @@ pub struct PrimStore {
     opaque_start: u32,
     /// Store index → primitive index.
     ids: Vec<u32>,
+    /// Where the primitives lie, for far rays ([`Reach`]).
+    reach: Reach,
 }
 
 /// Whether a box can be binned: not empty and finite.
@@ -125,6 +127,7 @@ impl PrimStore {
             })
             .collect();
         PrimStore {
+            reach: Reach::of(prims),
             tris,
             spheres,
             cones,
@@ -133,6 +136,11 @@ impl PrimStore {
             opaque_start: opaque_start as u32,
             ids: keys.par_iter().map(|&k| id(k) as u32).collect(),
         }
+    }
+
+    /// Where the primitives lie, for far rays.
+    pub fn reach(&self) -> &Reach {
+        &self.reach
     }
 
     pub fn len(&self) -> usize {

@@ -246,7 +246,8 @@ pub fn mixed(seed: u64, n: usize) -> Scene {
 
 /// Rays of every awkward kind for a scene box: random, from outside, starting inside or on the
 /// boundary, parallel to axes, lying in planes at the quarter marks of the box (where grids of
-/// many resolutions put cell boundaries), with random `[tmin, tmax]` windows.
+/// many resolutions put cell boundaries), with random `[tmin, tmax]` windows, windows that begin
+/// behind the origin, and rays from 10³ to 10¹² scene sizes away aimed into the box.
 pub fn rays_for(b: &Aabb, seed: u64, n: usize) -> Vec<Ray> {
     let mut r = rng(seed);
     let e = b.extent().max(Vec3::splat(1e-3));
@@ -262,7 +263,7 @@ pub fn rays_for(b: &Aabb, seed: u64, n: usize) -> Vec<Ray> {
     (0..n)
         .map(|i| {
             let inside = lerp(v3(&mut r, 0.0, 1.0));
-            match i % 8 {
+            match i % 10 {
                 0 => Ray::new(inside, unit(&mut r), 0.0, f32::INFINITY),
                 1 => {
                     let o = b.center() + unit(&mut r).normalize() * e.length() * 2.0;
@@ -306,6 +307,17 @@ pub fn rays_for(b: &Aabb, seed: u64, n: usize) -> Vec<Ray> {
                     )
                 }
                 6 => Ray::new(inside, unit(&mut r) * 1e-3, 0.0, f32::INFINITY),
+                7 => {
+                    // A window that begins behind the origin.
+                    let t0 = -r.random_range(0.0..2.0);
+                    Ray::new(inside, unit(&mut r), t0, t0 + r.random_range(0.0..4.0))
+                }
+                8 => {
+                    // From far away, through a point of the box (`t = 1` there).
+                    let far = e.length() * 10f32.powi(r.random_range(3..=12));
+                    let o = b.center() + unit(&mut r).normalize() * far;
+                    Ray::new(o, lerp(v3(&mut r, 0.0, 1.0)) - o, 0.0, f32::INFINITY)
+                }
                 _ => {
                     // Through a primitive-rich point: two random points inside.
                     let p = lerp(v3(&mut r, 0.0, 1.0));

@@ -275,6 +275,10 @@ impl Accel for Bvh {
         self.walk(prims, ray, sink, counters);
     }
 
+    fn reach(&self) -> &crate::accel::Reach {
+        self.store.reach()
+    }
+
     fn memory_bytes(&self) -> usize {
         std::mem::size_of::<Self>() + self.structure_bytes() + self.store.memory_bytes()
     }

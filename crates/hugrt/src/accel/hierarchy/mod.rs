@@ -34,8 +34,8 @@
 //! * the watertight triangle test's own rounding (its effective ray is off by a few ulps).
 //!
 //! With `margin = M·2^-17` (64 ulps of `M`), hits are those of brute force for ray origins
-//! within a few times `M` of the origin; rays from much farther away should be clipped to the
-//! scene's box by the caller. The property tests (`tests/agree.rs`) fail without the margin.
+//! within a few times `M` of the origin; rays from farther away are first moved to the
+//! scene ([`crate::accel::Reach`]). The property tests (`tests/agree.rs`) fail without the margin.
 //!
 //! # Files
 //! `plan` (what a grid is built from), `header` (one grid), `cells` (the occupied cells'

@@ -422,6 +422,10 @@ impl Accel for Hug {
         self.grids.query(prims, ray, sink, counters);
     }
 
+    fn reach(&self) -> &crate::accel::Reach {
+        self.grids.store.reach()
+    }
+
     fn memory_bytes(&self) -> usize {
         std::mem::size_of::<Self>() + self.grids.memory_bytes()
     }

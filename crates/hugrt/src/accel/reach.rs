@@ -1,0 +1,219 @@
+//! Rays from far away, moved to the scene before any structure walks them.
+//!
+//! Every test of a query measures from the ray's origin: the triangle test translates the
+//! vertices by it (Woop et al. 2013, §3), the slab tests and the grids' 3D-DDA take distances
+//! from it. In single precision each of these is exact to a few ulps of the origin's distance
+//! from the scene, not of the scene's size, and a grid's or kd-tree's walk stops being exact
+//! once that distance outgrows the margin ([`super::margin`]): from 4·10⁶ away, the DDA's cell
+//! boundaries on a unit cube lay 0.4 apart in `t`, and the HUG, the grids, the octree and the
+//! kd-tree missed a hit on the cube's corner that brute force and the bvh found (the rays
+//! fuzz target's find, `fuzz/regressions/rays/far-origin-*`).
+//!
+//! So a ray whose origin lies farther than [`FAR`] times the scene's magnitude from the world
+//! origin is first moved along itself, in double precision, to where it enters the scene's
+//! box (or to its `tmin`, if that lies inside): a new origin that is a point of the ray to
+//! within an ulp of the scene's magnitude. Every structure, brute force included, then walks
+//! that ray, so they all test the same ray and agree as they do on near rays, and its hits
+//! are more accurate than the far origin's single precision allowed. A hit's `t` is mapped
+//! back to the caller's ray, rounded once and clamped to its `[tmin, tmax]`.
+//!
+//! The move is exact to within the margin for origins up to about 2⁸⁰ times the scene's
+//! magnitude away (each step's new origin is off the ray by an ulp of its own distance from
+//! the scene, in double precision); with origins bounded by [`crate::geometry::Ray::MAX_COMPONENT`]
+//! (2⁶⁴), that is every scene larger than 2⁻¹⁶.
+
+use super::store::finite;
+use super::{Hit, Primitives};
+use crate::geometry::{Aabb, Ray};
+use glam::DVec3;
+use rayon::prelude::*;
+
+/// How far, in multiples of the scene's magnitude, an origin may lie before its ray is moved.
+/// Within it the walks' rounding is a few ulps of 16 times the magnitude, which the margin
+/// (64 ulps of the magnitude) covers; cameras a few scene sizes away stay unmoved.
+pub const FAR: f32 = 16.0;
+
+/// Steps of the move: each brings the origin to within 2⁻⁴⁸ of its distance from the box.
+const MAX_STEPS: usize = 8;
+
+/// The slab distances' relative widening: double precision rounds each to 2⁻⁵³.
+const PAD: f64 = 1.0 / (1u64 << 48) as f64;
+
+/// Where a structure's primitives lie, for moving far rays to them: the union of their
+/// finite boxes, computed by every structure the same way from the same primitives (so that
+/// they all walk the same moved ray).
+#[derive(Clone, Copy, Debug)]
+pub struct Reach {
+    bounds: Aabb,
+    /// Origins with a component beyond this are moved: [`FAR`] times the scene's magnitude;
+    /// infinite for a scene with nothing to hit.
+    far: f32,
+}
+
+/// A far ray moved to the scene: the ray a query walks, and how its hits map back to the
+/// caller's ray.
+#[derive(Clone, Copy, Debug)]
+pub struct Moved {
+    pub ray: Ray,
+    /// The caller's `t` of the new origin.
+    shift: f64,
+    /// The caller's interval.
+    tmin: f32,
+    tmax: f32,
+}
+
+impl Moved {
+    /// A hit of the walked ray as a hit of the caller's.
+    pub fn hit(&self, h: Hit) -> Hit {
+        Hit {
+            t: ((self.shift + h.t as f64) as f32).clamp(self.tmin, self.tmax),
+            prim: h.prim,
+        }
+    }
+}
+
+impl Reach {
+    /// The reach of `prims`, as every structure built over them has it ([`super::Accel::reach`]).
+    pub fn of<P: Primitives>(prims: &P) -> Reach {
+        let bounds = (0..prims.len())
+            .into_par_iter()
+            .map(|i| prims.bounds(i))
+            .filter(finite)
+            .reduce(|| Aabb::EMPTY, |a, b| a.union(&b));
+        let far = if bounds.is_empty() {
+            f32::INFINITY
+        } else {
+            FAR * bounds.magnitude().max(bounds.extent().max_element())
+        };
+        Reach { bounds, far }
+    }
+
+    /// Whether `ray` is walked as given. The queries test this alone on the hot path and
+    /// leave the move to a separate, cold function: building a moved-or-not ray on the stack
+    /// for every query cost the bvh 30% of its camera rays' speed (stores and loads of
+    /// different widths that the CPU cannot forward).
+    #[inline(always)]
+    pub fn is_near(&self, ray: &Ray) -> bool {
+        ray.origin.abs().max_element() <= self.far
+    }
+
+    /// The ray to walk for a ray that is not near (traceable, subnormal direction components
+    /// flushed); `None` when it cannot meet the scene's box in its interval.
+    pub fn moved(&self, ray: &Ray) -> Option<Moved> {
+        let d = ray.dir.as_dvec3();
+        let (lo, hi) = (self.bounds.min.as_dvec3(), self.bounds.max.as_dvec3());
+        let (tmin, tmax) = (ray.tmin as f64, ray.tmax as f64);
+        let mut o = ray.origin.as_dvec3();
+        let mut shift = 0.0f64;
+        for _ in 0..MAX_STEPS {
+            if o.abs().max_element() <= self.far as f64 {
+                break;
+            }
+            let (mut t0, mut t1) = (f64::NEG_INFINITY, f64::INFINITY);
+            for a in 0..3 {
+                if d[a] == 0.0 {
+                    if o[a] < lo[a] || o[a] > hi[a] {
+                        return None;
+                    }
+                } else {
+                    let (ta, tb) = ((lo[a] - o[a]) / d[a], (hi[a] - o[a]) / d[a]);
+                    t0 = t0.max(ta.min(tb));
+                    t1 = t1.min(ta.max(tb));
+                }
+            }
+            let pad = t0.abs().max(t1.abs()) * PAD;
+            let (t0, t1) = (t0 - pad, t1 + pad);
+            let (from, to) = (tmin - shift, tmax - shift);
+            if t0 > t1 || t1 < from || t0 > to {
+                return None;
+            }
+            let s = t0.max(from);
+            // One rounding: the new origin is the ray's point at `s` to an ulp of itself.
+            o = d.mul_add(DVec3::splat(s), o);
+            shift += s;
+        }
+        Some(Moved {
+            ray: Ray {
+                origin: o.as_vec3(),
+                dir: ray.dir,
+                tmin: (tmin - shift) as f32,
+                tmax: (tmax - shift) as f32,
+            },
+            shift,
+            tmin: ray.tmin,
+            tmax: ray.tmax,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::Vec3;
+    use crate::scene::Scene;
+
+    fn unit_cube() -> Scene {
+        Scene::from_triangles(vec![
+            [Vec3::ZERO, Vec3::X, Vec3::Y],
+            [Vec3::ONE, Vec3::ONE - Vec3::X, Vec3::ONE - Vec3::Y],
+        ])
+    }
+
+    #[test]
+    fn near_rays_are_walked_as_given() {
+        let reach = Reach::of(&unit_cube());
+        let ray = Ray::new(Vec3::splat(15.0), -Vec3::ONE, -3.0, 40.0);
+        assert!(reach.is_near(&ray));
+        assert!(!reach.is_near(&Ray::new(Vec3::splat(17.0), -Vec3::ONE, -3.0, 40.0)));
+    }
+
+    /// A ray from 10¹⁸ away is moved to just before the box, on the ray to within an ulp of the
+    /// box, and its hits' `t` map back to the caller's parameter.
+    #[test]
+    fn far_rays_are_moved_to_the_box() {
+        let reach = Reach::of(&unit_cube());
+        let far = 1.0e18f32;
+        let ray = Ray::new(
+            Vec3::new(0.25, 0.5, far),
+            Vec3::new(0.0, 0.0, -far),
+            0.0,
+            2.0,
+        );
+        let a = reach.moved(&ray).unwrap();
+        let o = a.ray.origin;
+        assert_eq!((o.x, o.y), (0.25, 0.5));
+        assert!(o.z >= 1.0 && o.z < 1.0 + 1e-6, "{o}");
+        // The face z = 1 at t = 1 − 1e-18 along the caller's ray: 1.0 in single precision.
+        let walked = (o.z - 1.0) / far;
+        assert_eq!(a.hit(Hit { t: walked, prim: 1 }).t, 1.0);
+        // Hits map into the caller's interval, even where rounding would leave it.
+        assert_eq!(a.hit(Hit { t: 5.0, prim: 1 }).t, 2.0);
+    }
+
+    #[test]
+    fn far_rays_that_miss_the_box_are_not_walked() {
+        let reach = Reach::of(&unit_cube());
+        let o = Vec3::new(3.0e9, 0.5, 0.5);
+        assert!(
+            reach
+                .moved(&Ray::new(o, Vec3::X, 0.0, f32::INFINITY))
+                .is_none()
+        );
+        assert!(
+            reach
+                .moved(&Ray::new(o, Vec3::Y, 0.0, f32::INFINITY))
+                .is_none()
+        );
+        assert!(reach.moved(&Ray::new(o, -Vec3::X, 0.0, 1.0e9)).is_none());
+        assert!(reach.moved(&Ray::new(o, -Vec3::X, 0.0, 3.1e9)).is_some());
+    }
+
+    #[test]
+    fn a_far_tmin_inside_the_box_becomes_the_origin() {
+        let reach = Reach::of(&unit_cube());
+        let ray = Ray::new(Vec3::new(-1.0e12, 0.5, 0.5), Vec3::X, 1.0e12, f32::INFINITY);
+        let a = reach.moved(&ray).unwrap();
+        assert_eq!(a.ray.origin, Vec3::new(0.0, 0.5, 0.5));
+        assert_eq!(a.ray.tmin, 0.0);
+    }
+}
