@@ -5,19 +5,33 @@
 //! objects in store order).
 
 use rayon::prelude::*;
-use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Below this many values one thread sorts: splitting costs more than it saves.
 const PARALLEL_FROM: usize = 1 << 16;
 
 /// Sorts `v` by the upper 32 bits of each value, stably.
 pub(crate) fn radix_sort_high32(v: &mut Vec<u64>) {
-    let top = v.iter().fold(0u64, |a, &x| a.max(x >> 32));
+    *v = radix_sort_high32_parts(vec![std::mem::take(v)]);
+}
+
+/// The values of `parts`, one after another, sorted by their upper 32 bits, stably: the
+/// parallel sort's first pass reads the parts where they are, so that a build's lists of
+/// pairs made in parallel are never copied into one (on a 16M-triangle HUG, a 750 MB copy
+/// into memory the kernel had to zero first).
+pub(crate) fn radix_sort_high32_parts(mut parts: Vec<Vec<u64>>) -> Vec<u64> {
+    let n: usize = parts.iter().map(Vec::len).sum();
+    let top = parts.iter().flatten().fold(0u64, |a, &x| a.max(x >> 32));
     let passes = passes(64 - top.leading_zeros());
-    if v.len() < PARALLEL_FROM || rayon::current_num_threads() == 1 {
-        serial(v, &passes);
+    if n < PARALLEL_FROM || rayon::current_num_threads() == 1 {
+        let mut v = if parts.len() == 1 {
+            parts.pop().unwrap_or_default()
+        } else {
+            parts.concat()
+        };
+        serial(&mut v, &passes);
+        v
     } else {
-        *v = parallel(std::mem::take(v), &passes);
+        parallel(parts, &passes)
     }
 }
 
@@ -64,50 +78,87 @@ fn serial(v: &mut Vec<u64>, passes: &[(u32, u32)]) {
 
 /// Each pass: every thread counts the digits of its chunk; chunk `c` then places its values
 /// with digit `d` after all values of smaller digits and after those of digit `d` in chunks
-/// before it. The slots of the chunks are disjoint, so the relaxed atomic stores never meet
-/// (on x86 they are plain stores), and the order within a digit is the order before the pass.
-fn parallel(v: Vec<u64>, passes: &[(u32, u32)]) -> Vec<u64> {
-    let n = v.len();
+/// before it, into its own slices of the destination (split off in that order, so each chunk
+/// writes only its own), and the order within a digit is the order before the pass. The
+/// first pass's chunks are runs of whole parts; the later ones' equal ranges.
+fn parallel(mut parts: Vec<Vec<u64>>, passes: &[(u32, u32)]) -> Vec<u64> {
+    let n: usize = parts.iter().map(Vec::len).sum();
     let chunks = rayon::current_num_threads().clamp(2, 16);
-    let range = |c: usize| c * n / chunks..(c + 1) * n / chunks;
-    let mut src: Vec<AtomicU64> = v.into_iter().map(AtomicU64::new).collect();
-    let mut dst: Vec<AtomicU64> = std::iter::repeat_with(|| AtomicU64::new(0))
-        .take(n)
-        .collect();
-    for &(shift, bits) in passes {
-        let digits = 1usize << bits;
-        let counts: Vec<Vec<usize>> = (0..chunks)
-            .into_par_iter()
-            .map(|c| {
-                let mut count = vec![0usize; digits];
-                for x in &src[range(c)] {
-                    count[digit(x.load(Ordering::Relaxed), shift, bits)] += 1;
+    // Zeroed by the allocator (pages the kernel zeroes on first touch, in the scatter's
+    // threads), not by a fill on one thread.
+    let mut dst = vec![0u64; n];
+    let mut src: Vec<u64> = Vec::new();
+    for (p, &(shift, bits)) in passes.iter().enumerate() {
+        let input: Vec<Vec<&[u64]>> = if p == 0 {
+            // Runs of whole parts of about `n / chunks` values each.
+            let mut runs: Vec<Vec<&[u64]>> = vec![Vec::new()];
+            let mut filled = 0;
+            for part in &parts {
+                if filled >= (n / chunks).max(1) {
+                    runs.push(Vec::new());
+                    filled = 0;
                 }
-                count
-            })
-            .collect();
-        let mut starts = vec![vec![0usize; digits]; chunks];
-        let mut at = 0;
-        for d in 0..digits {
-            for c in 0..chunks {
-                starts[c][d] = at;
-                at += counts[c][d];
+                runs.last_mut().unwrap().push(part.as_slice());
+                filled += part.len();
             }
+            runs
+        } else {
+            (0..chunks)
+                .map(|c| vec![&src[c * n / chunks..(c + 1) * n / chunks]])
+                .collect()
+        };
+        scatter(&input, &mut dst, shift, bits);
+        if p == 0 {
+            drop(input);
+            src = std::mem::take(&mut dst);
+            // The parts' memory becomes the next destination when it can be reused whole.
+            dst = match <[Vec<u64>; 1]>::try_from(parts) {
+                Ok([only]) if only.len() == n => only,
+                _ => vec![0u64; n],
+            };
+            parts = Vec::new();
+        } else {
+            std::mem::swap(&mut src, &mut dst);
         }
-        starts
-            .into_par_iter()
-            .enumerate()
-            .for_each(|(c, mut next)| {
-                for x in &src[range(c)] {
-                    let x = x.load(Ordering::Relaxed);
-                    let d = digit(x, shift, bits);
-                    dst[next[d]].store(x, Ordering::Relaxed);
-                    next[d] += 1;
-                }
-            });
-        std::mem::swap(&mut src, &mut dst);
     }
-    src.into_iter().map(AtomicU64::into_inner).collect()
+    src
+}
+
+/// One pass of [`parallel`]: the values of `input`'s chunks, each a list of slices read in
+/// order, placed into `dst` by their digit `(x >> shift) & (2^bits − 1)`, stably.
+fn scatter(input: &[Vec<&[u64]>], dst: &mut [u64], shift: u32, bits: u32) {
+    let digits = 1usize << bits;
+    let counts: Vec<Vec<usize>> = input
+        .par_iter()
+        .map(|chunk| {
+            let mut count = vec![0usize; digits];
+            for x in chunk.iter().flat_map(|s| s.iter()) {
+                count[digit(*x, shift, bits)] += 1;
+            }
+            count
+        })
+        .collect();
+    let mut outs: Vec<Vec<&mut [u64]>> = (0..input.len())
+        .map(|_| Vec::with_capacity(digits))
+        .collect();
+    let mut rest = dst;
+    // Digit-major, chunk-minor: the digit indexes every chunk's counts.
+    #[allow(clippy::needless_range_loop)]
+    for d in 0..digits {
+        for (out, count) in outs.iter_mut().zip(&counts) {
+            let (mine, after) = rest.split_at_mut(count[d]);
+            out.push(mine);
+            rest = after;
+        }
+    }
+    input.par_iter().zip(outs).for_each(|(chunk, mut out)| {
+        let mut next = vec![0usize; digits];
+        for &x in chunk.iter().flat_map(|s| s.iter()) {
+            let d = digit(x, shift, bits);
+            out[d][next[d]] = x;
+            next[d] += 1;
+        }
+    });
 }
 
 /// Sorts store indices ascending: radix passes for long lists, a comparison sort for short.
@@ -144,7 +195,17 @@ mod tests {
             let mut s = keys(n);
             serial(&mut s, &passes(32));
             assert_eq!(s, want, "serial, {n}");
-            assert_eq!(parallel(keys(n), &passes(32)), want, "parallel, {n}");
+            assert_eq!(parallel(vec![keys(n)], &passes(32)), want, "parallel, {n}");
+            // In uneven parts, the first pass reading them where they are.
+            let k = keys(n);
+            let mut cuts = [0, n / 7, (n / 7 + 1).min(n), n / 2, n];
+            cuts.sort_unstable();
+            let parts: Vec<Vec<u64>> = cuts
+                .windows(2)
+                .map(|w| k[w[0] as usize..w[1] as usize].to_vec())
+                .collect();
+            assert_eq!(parallel(parts.clone(), &passes(32)), want, "parts, {n}");
+            assert_eq!(radix_sort_high32_parts(parts), want, "parts, {n}");
             let mut r = keys(n);
             radix_sort_high32(&mut r);
             assert_eq!(r, want, "{n}");

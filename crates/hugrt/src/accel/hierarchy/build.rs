@@ -8,7 +8,7 @@ use super::header::GridHeader;
 use super::plan::{GridPlan, Prune, Subdivision};
 use super::{GRID_TAG, GridHierarchy, MAX_REFS_PER_ITEM, MIN_REF_BUDGET, NO_FRAME};
 use crate::accel::simd;
-use crate::accel::sort::radix_sort_high32;
+use crate::accel::sort::radix_sort_high32_parts;
 use crate::accel::store::{PrimStore, finite};
 use crate::accel::{Frame, Primitives, SpecError};
 use crate::geometry::{Aabb, Vec3};
@@ -212,17 +212,17 @@ impl GridHierarchy {
                 out
             })
             .collect();
-        let mut pairs = pairs.concat();
         drop(items);
-        if pairs.len() >= u32::MAX as usize {
+        let count: usize = pairs.iter().map(Vec::len).sum();
+        if count >= u32::MAX as usize {
             return Err(SpecError::Build(format!(
-                "{} references: more than one hierarchy can address",
-                pairs.len()
+                "{count} references: more than one hierarchy can address"
             )));
         }
         // Pass 2: a stable sort by cell keeps each cell's objects in store order, then its
-        // grids; the cell index and the references come straight from the sorted pairs.
-        radix_sort_high32(&mut pairs);
+        // grids; the cell index and the references come straight from the sorted pairs. The
+        // tasks' lists go to the sort as they are, in task order.
+        let mut pairs = radix_sort_high32_parts(pairs);
         let mut uncut = 0;
         if let Some(sub) = subdivision {
             pairs = Self::subdivide(
