@@ -4,7 +4,7 @@
 use super::{
     Accel, CellCensus, Counters, HitSink, NoSettings, Primitives, SpecError, StructureStats,
 };
-use crate::geometry::{Aabb, PreparedRay, Ray};
+use crate::geometry::{PreparedRay, Ray};
 
 pub struct Brute {
     len: usize,
@@ -18,11 +18,12 @@ impl Accel for Brute {
     type Settings = NoSettings;
 
     fn build_checked<P: Primitives>(prims: &P, _: &NoSettings) -> Result<Self, SpecError> {
-        let b = (0..prims.len()).fold(Aabb::EMPTY, |b, i| b.union(&prims.bounds(i)));
+        let reach = super::Reach::of(prims);
+        let b = reach.bounds();
         let volume = if b.is_empty() { 0.0 } else { b.volume() as f64 };
         Ok(Brute {
             len: prims.len(),
-            reach: super::Reach::of(prims),
+            reach,
             volume,
         })
     }

@@ -305,7 +305,7 @@ pub trait Accel: Sized + Send + Sync {
         }
         let ray = &ray.without_subnormal_direction();
         if !self.reach().is_near(ray) {
-            return far_closest_hit(self, prims, ray, counters);
+            return far_first_hit(self, prims, ray, counters, Closest::new, Closest::hit);
         }
         let mut sink = Closest::new(ray.tmax);
         self.query(prims, ray, &mut sink, counters);
@@ -326,7 +326,7 @@ pub trait Accel: Sized + Send + Sync {
         }
         let ray = &ray.without_subnormal_direction();
         if !self.reach().is_near(ray) {
-            return far_any_hit(self, prims, ray, counters);
+            return far_first_hit(self, prims, ray, counters, AnyHit::new, AnyHit::hit);
         }
         let mut sink = AnyHit::new(ray.tmax);
         self.query(prims, ray, &mut sink, counters);
@@ -386,34 +386,22 @@ pub trait Accel: Sized + Send + Sync {
     fn stats(&self) -> StructureStats;
 }
 
-/// [`Accel::closest_hit`] for a ray from far away, moved to the scene first ([`Reach`]).
+/// [`Accel::closest_hit`] (`Closest::new`, `Closest::hit`) or [`Accel::any_hit`] (the same
+/// of `AnyHit`) for a ray from far away, moved to the scene first ([`Reach`]).
 #[cold]
 #[inline(never)]
-fn far_closest_hit<A: Accel, P: Primitives, C: Counters>(
+fn far_first_hit<A: Accel, P: Primitives, C: Counters, S: HitSink>(
     accel: &A,
     prims: &P,
     ray: &Ray,
     counters: &mut C,
+    sink: fn(f32) -> S,
+    hit: fn(&S) -> Option<Hit>,
 ) -> Option<Hit> {
     let m = accel.reach().moved(ray)?;
-    let mut sink = Closest::new(m.ray.tmax);
+    let mut sink = sink(m.ray.tmax);
     accel.query(prims, &m.ray, &mut sink, counters);
-    sink.hit().map(|h| m.hit(h))
-}
-
-/// [`Accel::any_hit`] for a ray from far away ([`Reach`]).
-#[cold]
-#[inline(never)]
-fn far_any_hit<A: Accel, P: Primitives, C: Counters>(
-    accel: &A,
-    prims: &P,
-    ray: &Ray,
-    counters: &mut C,
-) -> Option<Hit> {
-    let m = accel.reach().moved(ray)?;
-    let mut sink = AnyHit::new(m.ray.tmax);
-    accel.query(prims, &m.ray, &mut sink, counters);
-    sink.hit().map(|h| m.hit(h))
+    hit(&sink).map(|h| m.hit(h))
 }
 
 /// Declares the list of structures: generates [`AnyAccel`] and [`STRUCTURES`].

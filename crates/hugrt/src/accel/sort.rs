@@ -81,45 +81,42 @@ fn serial(v: &mut Vec<u64>, passes: &[(u32, u32)]) {
 /// before it, into its own slices of the destination (split off in that order, so each chunk
 /// writes only its own), and the order within a digit is the order before the pass. The
 /// first pass's chunks are runs of whole parts; the later ones' equal ranges.
-fn parallel(mut parts: Vec<Vec<u64>>, passes: &[(u32, u32)]) -> Vec<u64> {
+fn parallel(parts: Vec<Vec<u64>>, passes: &[(u32, u32)]) -> Vec<u64> {
     let n: usize = parts.iter().map(Vec::len).sum();
     let chunks = rayon::current_num_threads().clamp(2, 16);
+    let Some((&(shift, bits), later)) = passes.split_first() else {
+        return parts.concat();
+    };
+    // Runs of whole parts of about `n / chunks` values each.
+    let mut runs: Vec<Vec<&[u64]>> = vec![Vec::new()];
+    let mut filled = 0;
+    for part in &parts {
+        if filled >= (n / chunks).max(1) {
+            runs.push(Vec::new());
+            filled = 0;
+        }
+        runs.last_mut().unwrap().push(part.as_slice());
+        filled += part.len();
+    }
     // Zeroed by the allocator (pages the kernel zeroes on first touch, in the scatter's
     // threads), not by a fill on one thread.
-    let mut dst = vec![0u64; n];
-    let mut src: Vec<u64> = Vec::new();
-    for (p, &(shift, bits)) in passes.iter().enumerate() {
-        let input: Vec<Vec<&[u64]>> = if p == 0 {
-            // Runs of whole parts of about `n / chunks` values each.
-            let mut runs: Vec<Vec<&[u64]>> = vec![Vec::new()];
-            let mut filled = 0;
-            for part in &parts {
-                if filled >= (n / chunks).max(1) {
-                    runs.push(Vec::new());
-                    filled = 0;
-                }
-                runs.last_mut().unwrap().push(part.as_slice());
-                filled += part.len();
-            }
-            runs
-        } else {
-            (0..chunks)
-                .map(|c| vec![&src[c * n / chunks..(c + 1) * n / chunks]])
-                .collect()
-        };
-        scatter(&input, &mut dst, shift, bits);
-        if p == 0 {
-            drop(input);
-            src = std::mem::take(&mut dst);
-            // The parts' memory becomes the next destination when it can be reused whole.
-            dst = match <[Vec<u64>; 1]>::try_from(parts) {
-                Ok([only]) if only.len() == n => only,
-                _ => vec![0u64; n],
-            };
-            parts = Vec::new();
-        } else {
-            std::mem::swap(&mut src, &mut dst);
+    let mut src = vec![0u64; n];
+    scatter(&runs, &mut src, shift, bits);
+    drop(runs);
+    // One part's memory is the next destination; several are freed before it is made.
+    let mut dst = match <[Vec<u64>; 1]>::try_from(parts) {
+        Ok([only]) => only,
+        Err(parts) => {
+            drop(parts);
+            vec![0u64; n]
         }
+    };
+    for &(shift, bits) in later {
+        let input: Vec<Vec<&[u64]>> = (0..chunks)
+            .map(|c| vec![&src[c * n / chunks..(c + 1) * n / chunks]])
+            .collect();
+        scatter(&input, &mut dst, shift, bits);
+        std::mem::swap(&mut src, &mut dst);
     }
     src
 }
