@@ -20,7 +20,6 @@ use hugrt::accel::{AnyAccel, COUNTERS, STRUCTURES};
 use hugrt::batch::{HitFormat, Query};
 use hugrt::bench::Workload;
 use hugrt::render::{DEFAULT_SCENE, ImageFormat, RenderJob, check_image, save_image};
-use hugrt::scene::write::SceneFormat;
 use hugrt::scene::{Scene, View, generate};
 use hugrt::stats::StatsReport;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -586,13 +585,9 @@ impl GenArgs {
             output,
         } = self;
         let size = generate::resolve_size(&kind, size)?;
-        SceneFormat::for_path(&output)?;
-        let scene = generate::generate(&kind, size, seed).expect("a resolved kind");
-        hugrt::scene::write::save(&scene, &output)?;
+        let (primitives, lights) = hugrt::scene::write::save_generated(&kind, size, seed, &output)?;
         say!(
-            "{kind} (size {size}, seed {seed}): {} primitives, {} lights -> {}",
-            scene.shapes.len(),
-            scene.lights.len(),
+            "{kind} (size {size}, seed {seed}): {primitives} primitives, {lights} lights -> {}",
             output.display()
         );
         Ok(())

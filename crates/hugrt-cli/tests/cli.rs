@@ -378,7 +378,7 @@ fn gen_writes_nff_and_ply_that_load_back() {
         ]);
         assert!(o.status.success(), "{}", stderr(&o));
         let s = hugrt::scene::Scene::load(&out).unwrap();
-        assert!(!s.shapes.is_empty());
+        assert!(!s.is_empty());
     }
     let bad = dir.path().join("flake.obj");
     let o = hugrt(&["gen", "sphereflake", "-o", bad.to_str().unwrap()]);

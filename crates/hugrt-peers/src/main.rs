@@ -213,10 +213,10 @@ fn main() -> Result<()> {
             .context("thread pool")?;
     }
     let scene = Scene::load(&args.mesh).with_context(|| args.mesh.display().to_string())?;
-    let mut triangles = Vec::with_capacity(scene.shapes.len());
-    for s in &scene.shapes {
+    let mut triangles = Vec::with_capacity(scene.len());
+    for s in scene.primitives() {
         match s {
-            Shape::Triangle(v) => triangles.push(*v),
+            Shape::Triangle(v) => triangles.push(v),
             _ => bail!("{}: the peers take triangles only", args.mesh.display()),
         }
     }

@@ -33,18 +33,17 @@ impl Scene {
         let faces = ints_n3(faces, "faces")?;
         let mut triangles = Vec::with_capacity(faces.len());
         for (i, f) in faces.iter().enumerate() {
-            let mut t = [Vec3::ZERO; 3];
+            let mut t = [0u32; 3];
             for (k, &v) in f.iter().enumerate() {
-                let p = usize::try_from(v)
+                t[k] = u32::try_from(v)
                     .ok()
-                    .and_then(|v| points.get(v))
+                    .filter(|&v| (v as usize) < points.len())
                     .ok_or_else(|| {
                         PyValueError::new_err(format!(
                             "faces[{i}] refers to vertex {v}: there are {} vertices",
                             points.len()
                         ))
                     })?;
-                t[k] = *p;
             }
             triangles.push(t);
         }
@@ -53,7 +52,9 @@ impl Scene {
                 "vertices[{i}] = {p} is not finite"
             )));
         }
-        Ok(Scene::of(hugrt::scene::Scene::from_triangles(triangles)))
+        let mesh = hugrt::scene::Mesh::new(points, triangles)
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        Ok(Scene::of(hugrt::scene::Scene::from_mesh(mesh)))
     }
 
     /// A scene by name: a file (`.nff`, `.ply`, `.obj`, `.stl`, `.gltf`, `.glb`, each optionally gzipped) or
@@ -86,7 +87,7 @@ impl Scene {
     }
 
     fn __len__(&self) -> usize {
-        self.inner.shapes.len()
+        self.inner.len()
     }
 
     /// The scene's bounding box as two arrays of 3 floats, `(min, max)`.
@@ -141,7 +142,7 @@ impl Scene {
         let b = self.inner.bounds();
         format!(
             "hugrt.Scene({} primitives, bounds {} to {})",
-            self.inner.shapes.len(),
+            self.inner.len(),
             b.min,
             b.max
         )
@@ -411,7 +412,7 @@ impl Accel {
         d.set_item("structure", self.accel.name())?;
         d.set_item("spec", &self.spec)?;
         d.set_item("memory_bytes", self.accel.memory_bytes())?;
-        d.set_item("primitives", self.scene.shapes.len())?;
+        d.set_item("primitives", self.scene.len())?;
         let entries = PyDict::new(py);
         for (k, v) in &s.entries {
             entries.set_item(k, v)?;
@@ -460,7 +461,7 @@ impl Accel {
         format!(
             "hugrt.Accel({:?} over {} primitives, {} bytes)",
             self.spec,
-            self.scene.shapes.len(),
+            self.scene.len(),
             self.accel.memory_bytes()
         )
     }

@@ -20,7 +20,7 @@ const SPECS: &[&str] = &[
 fn build(c: &mut Criterion) {
     let scene = clustered_room(100_000, 1);
     let mut g = c.benchmark_group("build");
-    g.throughput(Throughput::Elements(scene.shapes.len() as u64));
+    g.throughput(Throughput::Elements(scene.len() as u64));
     for spec in SPECS {
         g.bench_with_input(BenchmarkId::from_parameter(spec), spec, |b, spec| {
             b.iter(|| black_box(AnyAccel::build(&scene, spec).unwrap()))

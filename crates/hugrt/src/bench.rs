@@ -23,9 +23,7 @@
 //! the structure makes, which is what Havran's `T_TT < T_TR` compares across structures. For
 //! batches of rays all the time is in the structure, and `T_TT/T_TR` is not reported.
 
-use crate::accel::{
-    AnyAccel, COUNTERS, CellCensus, Counts, Hit, PIT, Primitives, RayCounters, SpecError, VT,
-};
+use crate::accel::{AnyAccel, COUNTERS, CellCensus, Counts, Hit, PIT, RayCounters, SpecError, VT};
 use crate::batch::{camera_rays, count, incoherent_rays, trace_into};
 use crate::geometry::Ray;
 use crate::render::{

@@ -23,14 +23,14 @@ pub fn scene_file(name: &str, data: &[u8]) {
     let Ok(scene) = Scene::from_bytes(name, data) else {
         return;
     };
-    for (i, s) in scene.shapes.iter().enumerate() {
+    for (i, s) in scene.primitives().enumerate() {
         let b = s.bounds();
         assert!(
             b.is_empty() || (b.min.is_finite() && b.max.is_finite()),
             "primitive {i} has a non-finite bound: {s:?}"
         );
     }
-    if scene.shapes.len() > MAX_CHECKED_PRIMITIVES {
+    if scene.len() > MAX_CHECKED_PRIMITIVES {
         return;
     }
     let b = scene.bounds();
@@ -74,12 +74,15 @@ fn fixture() -> Scene {
         Vec3::new(0.9, 0.5, 0.5),
         Vec3::new(0.9, 0.5000001, 0.5),
     ]);
-    let mut scene = Scene::from_triangles(tris);
-    scene.shapes.push(Shape::Sphere(crate::geometry::Sphere {
+    let mut shapes: Vec<Shape> = tris.into_iter().map(Shape::Triangle).collect();
+    shapes.push(Shape::Sphere(crate::geometry::Sphere {
         center: Vec3::splat(0.5),
         radius: 0.25,
     }));
-    scene
+    Scene {
+        shapes,
+        ..Scene::default()
+    }
 }
 
 fn check_structures(scene: &Scene, rays: &[Ray]) {

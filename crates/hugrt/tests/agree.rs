@@ -3,7 +3,6 @@
 mod common;
 
 use common::*;
-use hugrt::accel::Primitives;
 use proptest::prelude::*;
 
 fn check_all(scene: &hugrt::scene::Scene, ray_seed: u64, n_rays: usize) {

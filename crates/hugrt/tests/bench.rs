@@ -51,7 +51,7 @@ fn rows_are_complete_and_counters_consistent() {
             let what = format!("{spec} on {workload:?}");
             assert_eq!(r.structure, *spec);
             assert_eq!(r.scene, "tiny");
-            assert_eq!(r.primitives, scene.shapes.len());
+            assert_eq!(r.primitives, scene.len());
             assert_eq!(r.differences, 0, "{what}: answers differ from brute force");
             assert_eq!(r.compared, if whitted { "pixels" } else { "rays" });
             assert!(r.rays > 0 && r.hits > 0 && r.hits <= r.rays, "{what}");

@@ -70,7 +70,7 @@ fn stat(a: &AnyAccel, key: &str) -> f64 {
 /// settings used (world factor 8, cluster density 2, `min_cluster` 1), and compares with
 /// brute force on rays of every awkward kind.
 fn check(scene: &Scene, rays: usize) {
-    let n = scene.shapes.len() as f64;
+    let n = scene.len() as f64;
     for spec in SPECS {
         let a = AnyAccel::build(scene, spec).unwrap_or_else(|e| panic!("{spec}: {e}"));
         let grids = stat(&a, "grids");

@@ -30,7 +30,7 @@ fn a_render_job_is_the_rendering_of_its_parts() {
     assert_eq!(report.counts, direct.counts);
     assert_eq!(
         (report.primitives, report.lights, report.structure),
-        (scene.shapes.len(), scene.lights.len(), "grid")
+        (scene.len(), scene.lights.len(), "grid")
     );
 }
 

@@ -17,10 +17,9 @@ fn gzip(data: &[u8]) -> Vec<u8> {
 }
 
 fn triangles(s: &Scene) -> Vec<[Vec3; 3]> {
-    s.shapes
-        .iter()
+    s.primitives()
         .map(|sh| match sh {
-            Shape::Triangle(v) => *v,
+            Shape::Triangle(v) => v,
             other => panic!("expected triangles only, got {other:?}"),
         })
         .collect()
@@ -298,7 +297,7 @@ fn degenerate_faces_keep_their_index() {
     // Face 1 repeats a vertex and face 2 is collinear: both are kept, so face 3 stays index 3.
     let faces = vec![vec![0, 1, 2], vec![0, 0, 1], vec![0, 1, 3], vec![1, 3, 2]];
     let s = Scene::from_bytes("d.ply", &ply_ascii(&verts, &faces)).unwrap();
-    assert_eq!(s.shapes.len(), 4);
+    assert_eq!(s.len(), 4);
     assert_eq!(triangles(&s)[3], [Vec3::X, Vec3::X * 2.0, Vec3::Y]);
 }
 
@@ -339,16 +338,13 @@ fn nff_fixture_reads_every_keyword() {
     // Gzipped, the same scene.
     let text = std::fs::read(fixture("features.nff")).unwrap();
     let z = Scene::from_bytes("features.nff.gz", &gzip(&text)).unwrap();
-    assert_eq!(z.shapes.len(), s.shapes.len());
+    assert_eq!(z.len(), s.len());
 }
 
 /// Loads `data` as `name` and returns the error text, failing if it loaded.
 fn error_of(name: &str, data: &[u8]) -> String {
     match Scene::from_bytes(name, data) {
-        Ok(s) => panic!(
-            "{name}: loaded {} shapes from malformed input",
-            s.shapes.len()
-        ),
+        Ok(s) => panic!("{name}: loaded {} primitives from malformed input", s.len()),
         Err(e) => e.to_string(),
     }
 }
@@ -411,7 +407,7 @@ fn malformed_nff_names_file_line_and_reason() {
     // A Latin-1 comment, as files of the SPD's era have them, is no error.
     let latin1 = b"# Caf\xe9 au lait\ns 0 0 0 1\n";
     let s = Scene::from_bytes("cafe.nff", latin1).unwrap();
-    assert_eq!(s.shapes.len(), 1);
+    assert_eq!(s.len(), 1);
 }
 
 #[test]
@@ -647,6 +643,7 @@ fn text_files_from_other_tools_load() {
         bom.extend_from_slice(text.as_bytes());
         for data in [utf16(text, true), utf16(text, false), bom] {
             let s = Scene::from_bytes(name, &data).unwrap_or_else(|e| panic!("{name}: {e}"));
+            assert_eq!(s.mesh, plain.mesh, "{name}");
             assert_eq!(s.shapes, plain.shapes, "{name}");
         }
     }
@@ -678,7 +675,7 @@ fn obj_materials_come_from_the_mtl_beside_it() {
     let obj = "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nusemtl red\nf 1 3 2\nf 2 3 1\nusemtl nope\nf 3 1 2\nusemtl blue\nf 1 2 3\n";
     std::fs::write(dir.join("m.obj"), obj).unwrap();
     let s = Scene::load(dir.join("m.obj")).unwrap();
-    assert_eq!(s.shapes.len(), 5);
+    assert_eq!(s.len(), 5);
     let grey = hugrt::scene::Material::default();
     assert_eq!(*s.material(0), grey);
     let red = *s.material(1);

@@ -215,7 +215,7 @@ fn papers_statistics_follow_their_definitions() {
             let pct_obj: f64 = view.iter().map(|l| l.pct_obj).sum();
             assert!((pct_obj - 100.0).abs() < 1e-9, "{spec}: Σ%obj = {pct_obj}");
             let objects: usize = view.iter().map(|l| l.objects).sum();
-            assert_eq!(objects, room.shapes.len(), "{spec}");
+            assert_eq!(objects, room.len(), "{spec}");
             for l in view.iter() {
                 // The figure tables' μo_g: the share of objects over the share of grids.
                 assert!(

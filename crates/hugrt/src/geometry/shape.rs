@@ -29,6 +29,12 @@ pub struct SurfacePoint {
 /// [`Shape::with_tiny_coordinates_zeroed`].
 pub const TINY_COORDINATE: f32 = 7.888_609e-31;
 
+/// `p` with every coordinate below [`TINY_COORDINATE`] in magnitude made zero (see
+/// [`Shape::with_tiny_coordinates_zeroed`]).
+pub fn tiny_coordinates_zeroed(p: Vec3) -> Vec3 {
+    Vec3::select(p.abs().cmplt(Vec3::splat(TINY_COORDINATE)), Vec3::ZERO, p)
+}
+
 impl Shape {
     /// The shape with every coordinate of its points below [`TINY_COORDINATE`] in magnitude
     /// made zero (radii and normals are kept), as the loaders take them.
@@ -40,8 +46,7 @@ impl Shape {
     /// sheared edge functions, all rounding, reported crossings far outside the scene's box
     /// (brute force "hit" them; every structure's box test rightly did not).
     pub fn with_tiny_coordinates_zeroed(&self) -> Shape {
-        let zeroed =
-            |p: Vec3| Vec3::select(p.abs().cmplt(Vec3::splat(TINY_COORDINATE)), Vec3::ZERO, p);
+        let zeroed = tiny_coordinates_zeroed;
         match *self {
             Shape::Triangle(v) => Shape::Triangle(v.map(zeroed)),
             Shape::Patch { v, normals } => Shape::Patch {

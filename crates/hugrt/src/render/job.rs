@@ -79,7 +79,7 @@ impl RenderJob {
         self.check()?;
         let t = Instant::now();
         let mut scene = Scene::open(&self.scene)?;
-        if scene.shapes.is_empty() && !self.allow_empty {
+        if scene.is_empty() && !self.allow_empty {
             return Err(Error::Empty(self.scene.clone()));
         }
         scene.camera = scene.camera.viewed(&self.view)?;
@@ -115,7 +115,7 @@ impl RenderJob {
             counts: out.counts,
             scene: self.scene.clone(),
             accel: self.accel.clone(),
-            primitives: scene.shapes.len(),
+            primitives: scene.len(),
             width: settings.width,
             height: settings.height,
             load_seconds,

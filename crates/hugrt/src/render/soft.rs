@@ -130,15 +130,15 @@ impl<'a> Occluders<'a> {
 
 impl Primitives for Occluders<'_> {
     fn len(&self) -> usize {
-        self.scene.shapes.len()
+        self.scene.len()
     }
 
     fn bounds(&self, i: usize) -> Aabb {
-        self.scene.shapes[i].bounds().expand(self.radius)
+        self.scene.shape(i).bounds().expand(self.radius)
     }
 
     fn intersect(&self, i: usize, r: &PreparedRay, tmin: f32, tmax: f32) -> Option<f32> {
-        let shape = &self.scene.shapes[i];
+        let shape = &self.scene.shape(i);
         if self.radius <= 0.0 {
             return shape.intersect(r, tmin, tmax);
         }

@@ -664,7 +664,7 @@ pub(super) fn havran_layouts(o: &super::Options) -> Output {
          cycles): compare ratios to depth-first. {cache_note} Published figures: \
          `data/published/{}` and `havran97-table8.csv`.\n\n",
         if o.quick { " --quick" } else { "" },
-        scene.shapes.len(),
+        scene.len(),
         table7.file
     );
     if !problems.is_empty() {

@@ -74,8 +74,7 @@ struct TimeRow {
 /// objects, a quarter of the field of view.
 fn zoomed(scene: &Scene) -> Scene {
     let mut by_size: Vec<(f32, glam::Vec3)> = scene
-        .shapes
-        .iter()
+        .primitives()
         .map(|s| {
             let b = s.bounds();
             (b.diagonal(), b.center())
@@ -101,7 +100,7 @@ pub(super) fn scg97_levels(o: &super::Options) -> Output {
     let times_pub = Table::load("scg97-figs20-23-times.csv");
     let (size, side, repeat) = if o.quick { (1, 50, 1) } else { (2, 250, 3) };
     let scene = generate("kitchen", size, 1).expect("a generated kind");
-    let n = scene.shapes.len().max(1);
+    let n = scene.len().max(1);
     let specs: Vec<String> = STRUCTURES
         .iter()
         .map(|(name, spec)| {
@@ -849,8 +848,7 @@ pub(super) fn scg97_scenes(o: &super::Options) -> Output {
         };
         let scene = generate(kind, *s, 1).expect("a generated kind");
         let lengths: Vec<f64> = scene
-            .shapes
-            .iter()
+            .primitives()
             .map(|sh| sh.bounds().diagonal() as f64)
             .collect();
         let max = lengths.iter().cloned().fold(0.0, f64::max);

@@ -15,10 +15,13 @@
 //! | garden | 33,538 | 9.4e-4 | 9.4e-4 | 99.99 |
 //! | sphereflake | 7,383 | 1.3e-3 | 1.3e-3 | 99.97 |
 //! | stadium | 18,466 | 8.1e-6 | 3.4e-6 | 99.99 |
+//! | terrain | 100,352 | 0.42 | 4.4e-3 | 0.00 |
 //!
 //! The kitchen's distribution is SCG97 Fig. 4's (21k polygons, min/max 9e-4, min/diag 6.5e-4,
 //! 99.3% under a fifth of the largest): thousands of small tessellated objects, cutlery a
 //! couple of millimetres thick, in a room whose floor and walls are the few long objects.
+//! The terrain is the opposite case, on purpose: one mesh of triangles of one size
+//! ([`super::Terrain`]), for measuring how builds and memory grow with the count alone.
 
 use super::{Camera, Light, Material, Scene};
 use crate::geometry::{Shape, Sphere, Vec3};
@@ -59,6 +62,11 @@ pub const KINDS: &[(&str, &str, u32)] = &[
         "a few dense detailed objects in a huge sparse enclosure; size = detail",
         2,
     ),
+    (
+        "terrain",
+        "a fractal heightfield mesh of shared vertices, triangles of one size (the scale test); size = thousands of triangles, written to .ply a row at a time",
+        100,
+    ),
 ];
 
 /// Generates scene `kind` at `size` (0: the kind's default) from `seed`.
@@ -76,6 +84,7 @@ pub fn generate(kind: &str, size: u32, seed: u64) -> Option<Scene> {
         "garden" => garden(&mut b, size),
         "sphereflake" => sphereflake(&mut b, size),
         "stadium" => stadium(&mut b, size),
+        "terrain" => return Some(super::Terrain::with_triangles(size as u64 * 1000, seed).scene()),
         _ => return None,
     }
     Some(b.scene)
@@ -111,6 +120,7 @@ pub fn max_size(kind: &str) -> u32 {
     match kind {
         "sphereflake" => 8,
         "building" => 256,
+        "terrain" => 1_000_000,
         _ => 64,
     }
 }
@@ -151,6 +161,7 @@ impl Builder {
         Builder {
             scene: Scene {
                 shapes: Vec::new(),
+                mesh: Default::default(),
                 material_runs: Vec::new(),
                 materials: vec![
                     material(Vec3::new(0.6, 0.4, 0.25), 0.8, 0.1, 10.0),
@@ -866,8 +877,8 @@ mod tests {
         for (kind, _, _) in KINDS {
             let a = generate(kind, 1, 7).unwrap();
             let b = generate(kind, 1, 7).unwrap();
-            assert_eq!(a.shapes, b.shapes, "{kind}");
-            assert!(!a.shapes.is_empty() && !a.lights.is_empty(), "{kind}");
+            assert_eq!((&a.shapes, &a.mesh), (&b.shapes, &b.mesh), "{kind}");
+            assert!(!a.is_empty() && !a.lights.is_empty(), "{kind}");
         }
         assert!(generate("nothing", 1, 1).is_none());
     }

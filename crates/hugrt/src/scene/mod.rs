@@ -4,14 +4,18 @@
 mod error;
 pub mod generate;
 mod gltf;
+mod mesh;
 mod nff;
 mod obj;
 mod ply;
 pub mod procedural;
 mod stl;
+mod terrain;
 pub mod write;
 
 pub use error::SceneError;
+pub use mesh::{MAX_PRIMITIVES, Mesh, MeshError};
+pub use terrain::Terrain;
 
 use crate::accel::{PrimitiveKind, Primitives};
 use crate::geometry::{Aabb, PreparedRay, Shape, Vec3};
@@ -134,11 +138,16 @@ impl Camera {
 /// Largest image side accepted from a file (a resolution line is untrusted input).
 pub const MAX_RESOLUTION: u32 = 16384;
 
-/// A scene ready for ray shooting. Primitive `i` is `shapes[i]`; for PLY and OBJ files that is
-/// the `i`-th triangle in file order (polygons fanned in order).
+/// A scene ready for ray shooting: shapes (spheres, cones, patches, polygons of NFF files),
+/// then the triangles of an indexed [`Mesh`]. Primitive `i` is `shapes[i]` below
+/// `shapes.len()`, and the mesh's triangle `i − shapes.len()` from there ([`Scene::shape`]).
+/// The mesh formats (PLY, OBJ, STL, glTF) fill the mesh alone, so primitive `i` is the `i`-th
+/// triangle in file order (polygons fanned in order); NFF fills the shapes alone.
 #[derive(Clone, Debug)]
 pub struct Scene {
     pub shapes: Vec<Shape>,
+    /// Triangles with shared vertices, numbered after the shapes.
+    pub mesh: Mesh,
     /// Materials by runs: `(first primitive, material index)`, sorted by first primitive.
     pub material_runs: Vec<(u32, u32)>,
     pub materials: Vec<Material>,
@@ -242,7 +251,7 @@ impl Scene {
     }
 
     /// The scene with its shapes' tiny coordinates made zero
-    /// ([`Shape::with_tiny_coordinates_zeroed`]): what every loader and
+    /// ([`Shape::with_tiny_coordinates_zeroed`]; a [`Mesh`] is made so): what every loader and
     /// [`Scene::from_triangles`] hand out.
     pub fn with_tiny_coordinates_zeroed(mut self) -> Scene {
         for s in &mut self.shapes {
@@ -251,23 +260,43 @@ impl Scene {
         self
     }
 
-    /// A triangle mesh with one default material, one light at the eye, and the framing camera.
+    /// A triangle soup as a mesh ([`Mesh::welded`]: equal vertices stored once) with one
+    /// default material, one light at the eye, and the framing camera.
     pub fn from_triangles(triangles: Vec<[Vec3; 3]>) -> Scene {
-        let shapes: Vec<Shape> = triangles
-            .into_iter()
-            .map(|v| Shape::Triangle(v).with_tiny_coordinates_zeroed())
-            .collect();
+        Scene::from_mesh(Mesh::welded(&triangles))
+    }
+
+    /// A mesh with one default material, one light at the eye, and the framing camera.
+    pub fn from_mesh(mesh: Mesh) -> Scene {
         let mut scene = Scene {
-            shapes,
-            material_runs: vec![(0, 0)],
-            materials: vec![Material::default()],
-            patch_normals: Vec::new(),
-            lights: Vec::new(),
-            camera: Camera::framing(&Aabb::EMPTY),
-            background: Vec3::splat(0.05),
+            mesh,
+            ..Scene::default()
         };
         scene.frame_camera_and_light();
         scene
+    }
+
+    /// The number of primitives: shapes and mesh triangles.
+    pub fn len(&self) -> usize {
+        self.shapes.len() + self.mesh.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Primitive `i` as a shape: `shapes[i]`, or the mesh's triangle after them.
+    #[inline]
+    pub fn shape(&self, i: usize) -> Shape {
+        match self.shapes.get(i) {
+            Some(s) => *s,
+            None => Shape::Triangle(self.mesh.triangle(i - self.shapes.len())),
+        }
+    }
+
+    /// Every primitive as a shape, in primitive order.
+    pub fn primitives(&self) -> impl ExactSizeIterator<Item = Shape> + '_ {
+        (0..self.len()).map(|i| self.shape(i))
     }
 
     fn frame_camera_and_light(&mut self) {
@@ -285,9 +314,15 @@ impl Scene {
     }
 
     pub fn bounds(&self) -> Aabb {
-        self.shapes
+        let shapes = self
+            .shapes
             .iter()
-            .fold(Aabb::EMPTY, |b, s| b.union(&s.bounds()))
+            .fold(Aabb::EMPTY, |b, s| b.union(&s.bounds()));
+        self.mesh
+            .triangles()
+            .iter()
+            .flatten()
+            .fold(shapes, |b, &k| b.grow(self.mesh.vertices()[k as usize]))
     }
 
     pub fn material(&self, prim: u32) -> &Material {
@@ -304,28 +339,45 @@ impl Scene {
     /// Bytes held by the primitives, materials and normals.
     pub fn memory_bytes(&self) -> usize {
         self.shapes.capacity() * std::mem::size_of::<Shape>()
+            + self.mesh.memory_bytes()
             + self.patch_normals.capacity() * 36
             + self.material_runs.capacity() * 8
             + self.materials.capacity() * std::mem::size_of::<Material>()
     }
 }
 
+impl Default for Scene {
+    /// No primitives, the default material, no lights, a camera framing the unit cube.
+    fn default() -> Self {
+        Scene {
+            shapes: Vec::new(),
+            mesh: Mesh::default(),
+            material_runs: vec![(0, 0)],
+            materials: vec![Material::default()],
+            patch_normals: Vec::new(),
+            lights: Vec::new(),
+            camera: Camera::framing(&Aabb::new(Vec3::ZERO, Vec3::ONE)),
+            background: Vec3::splat(0.05),
+        }
+    }
+}
+
 impl Primitives for Scene {
     fn len(&self) -> usize {
-        self.shapes.len()
+        Scene::len(self)
     }
     fn bounds(&self, i: usize) -> Aabb {
-        self.shapes[i].bounds()
+        self.shape(i).bounds()
     }
     #[inline]
     fn intersect(&self, i: usize, ray: &PreparedRay, tmin: f32, tmax: f32) -> Option<f32> {
-        self.shapes[i].intersect(ray, tmin, tmax)
+        self.shape(i).intersect(ray, tmin, tmax)
     }
     fn overlaps_box(&self, i: usize, b: &Aabb) -> bool {
-        self.shapes[i].overlaps_box(b)
+        self.shape(i).overlaps_box(b)
     }
     fn kind(&self, i: usize) -> PrimitiveKind {
-        match self.shapes[i] {
+        match self.shape(i) {
             Shape::Triangle(v) | Shape::Patch { v, .. } => PrimitiveKind::Triangle(v),
             Shape::Sphere(s) => PrimitiveKind::Sphere(s),
             Shape::Cone(c) => PrimitiveKind::Cone(c),

@@ -84,6 +84,7 @@ pub fn parse(path: &str, data: &[u8]) -> Result<Scene, SceneError> {
     };
     let mut scene = Scene {
         shapes: Vec::new(),
+        mesh: Default::default(),
         material_runs: Vec::new(),
         materials: Vec::new(),
         patch_normals: Vec::new(),

@@ -12,7 +12,7 @@
 //! refuses) means the default material, and bytes that are not UTF-8 (a Latin-1 name) are
 //! replaced in names, where they do not matter, rather than refusing the file.
 
-use super::{Material, Scene, SceneError, finite};
+use super::{MAX_PRIMITIVES, Material, Mesh, Scene, SceneError, finite};
 use crate::geometry::Vec3;
 use std::borrow::Cow;
 use std::path::Path;
@@ -40,9 +40,9 @@ pub fn parse(path: &str, data: &[u8]) -> Result<Scene, SceneError> {
     let materials: Vec<Material> = materials
         .map(|m| m.iter().map(material).collect())
         .unwrap_or_default();
-    let mut triangles = Vec::new();
+    let mut vertices: Vec<Vec3> = Vec::new();
+    let mut triangles: Vec<[u32; 3]> = Vec::new();
     let mut runs: Vec<(u32, u32)> = Vec::new();
-    let mut vertex_base = 0usize;
     for m in &models {
         let id = m
             .mesh
@@ -52,32 +52,33 @@ pub fn parse(path: &str, data: &[u8]) -> Result<Scene, SceneError> {
         if runs.last().is_none_or(|r| r.1 != id) {
             runs.push((triangles.len() as u32, id));
         }
-        let pos = &m.mesh.positions;
-        let points: Vec<Vec3> = pos
-            .chunks_exact(3)
-            .enumerate()
-            .map(
-                |(i, c)| match c.iter().map(|&x| finite(x)).collect::<Result<Vec<_>, _>>() {
-                    Ok(v) => Ok(Vec3::new(v[0], v[1], v[2])),
-                    Err(reason) => Err(vertex_error(path, data, vertex_base + i, &reason)),
-                },
-            )
-            .collect::<Result<_, _>>()?;
-        for t in m.mesh.indices.chunks_exact(3) {
-            let mut v = [Vec3::ZERO; 3];
-            for (k, &i) in t.iter().enumerate() {
-                v[k] = *points.get(i as usize).ok_or_else(|| {
-                    SceneError::invalid(
-                        path,
-                        format!("OBJ: vertex index {} out of range", i as u64 + 1),
-                    )
-                })?;
+        let base = vertices.len();
+        for (i, c) in m.mesh.positions.chunks_exact(3).enumerate() {
+            match c.iter().map(|&x| finite(x)).collect::<Result<Vec<_>, _>>() {
+                Ok(v) => vertices.push(Vec3::new(v[0], v[1], v[2])),
+                Err(reason) => return Err(vertex_error(path, data, base + i, &reason)),
             }
-            triangles.push(v);
         }
-        vertex_base += points.len();
+        let count = vertices.len() - base;
+        for t in m.mesh.indices.chunks_exact(3) {
+            if let Some(&i) = t.iter().find(|&&i| i as usize >= count) {
+                return Err(SceneError::invalid(
+                    path,
+                    format!("OBJ: vertex index {} out of range", i as u64 + 1),
+                ));
+            }
+            triangles.push([t[0], t[1], t[2]].map(|i| (base + i as usize) as u32));
+        }
+        if triangles.len() > MAX_PRIMITIVES || vertices.len() > u32::MAX as usize {
+            return Err(SceneError::invalid(
+                path,
+                "OBJ: more than 2^32-2 triangles or vertices",
+            ));
+        }
     }
-    let mut scene = Scene::from_triangles(triangles);
+    let mesh = Mesh::new(vertices, triangles)
+        .map_err(|e| SceneError::invalid(path, format!("OBJ: {e}")))?;
+    let mut scene = Scene::from_mesh(mesh);
     if !materials.is_empty() {
         scene.materials.extend(materials);
         scene.material_runs = runs;

@@ -3,7 +3,7 @@
 //! other elements and properties are skipped. Faces with more than three vertices are fanned in
 //! order, so triangle `i` is the `i`-th triangle in file order.
 
-use super::{Scene, SceneError, finite};
+use super::{MAX_PRIMITIVES, Mesh, Scene, SceneError, finite};
 use crate::geometry::Vec3;
 use ply_rs_bw::parser::{Parser, Reader};
 use ply_rs_bw::ply::{Property, PropertyAccess};
@@ -78,78 +78,120 @@ pub fn parse(path: &str, data: &[u8]) -> Result<Scene, SceneError> {
     let header = Parser::<Skip>::new()
         .read_header(&mut reader)
         .map_err(|e| ply_error(path, &e, None))?;
-    let binary = !matches!(header.encoding, ply_rs_bw::ply::Encoding::Ascii);
     check_counts(path, data, &header)?;
-    let mut vertices: Option<Vec<Vertex>> = None;
-    let mut faces: Option<Vec<Face>> = None;
+    let mut points: Option<Vec<Vec3>> = None;
+    let mut triangles: Option<Vec<[u32; 3]>> = None;
     for (name, def) in header.elements.iter() {
         match name.as_str() {
             "vertex" => {
-                vertices = Some(
-                    Parser::<Vertex>::new()
-                        .read_payload_for_element(&mut reader, def, &header)
-                        .map_err(|e| ply_error(path, &e, Some((name, binary))))?,
-                )
+                let mut p = Vec::with_capacity(def.count);
+                for_each_element(path, &mut reader, def, &header, |i, v: Vertex| {
+                    match v.0.map(|x| finite(x as f32)) {
+                        [Ok(x), Ok(y), Ok(z)] => {
+                            p.push(Vec3::new(x, y, z));
+                            Ok(())
+                        }
+                        _ => Err(SceneError::invalid(
+                            path,
+                            format!(
+                                "PLY: vertex {i}: coordinate is NaN or infinite (or beyond f32)"
+                            ),
+                        )),
+                    }
+                })?;
+                points = Some(p);
             }
             "face" => {
-                faces = Some(
-                    Parser::<Face>::new()
-                        .read_payload_for_element(&mut reader, def, &header)
-                        .map_err(|e| ply_error(path, &e, Some((name, binary))))?,
-                )
+                // Faces before vertices (legal, if rare) are checked by `Mesh::new` instead.
+                let count = points.as_ref().map_or(u32::MAX as usize, Vec::len);
+                let mut t: Vec<[u32; 3]> = Vec::with_capacity(def.count);
+                for_each_element(path, &mut reader, def, &header, |f, face: Face| {
+                    let idx = &face.0;
+                    if let Some(i) = idx.iter().find(|&&i| i < 0 || i as u64 >= count as u64) {
+                        return Err(SceneError::invalid(
+                            path,
+                            format!(
+                                "PLY: face {f}: vertex index {i} out of range ({count} vertices)"
+                            ),
+                        ));
+                    }
+                    if idx.len() < 3 {
+                        return Err(SceneError::invalid(
+                            path,
+                            format!("PLY: face {f}: {} vertices, need 3 or more", idx.len()),
+                        ));
+                    }
+                    if t.len() + idx.len() - 2 > MAX_PRIMITIVES {
+                        return Err(SceneError::invalid(path, "PLY: more than 2^32-2 triangles"));
+                    }
+                    t.extend(
+                        (1..idx.len() - 1).map(|k| [idx[0], idx[k], idx[k + 1]].map(|i| i as u32)),
+                    );
+                    Ok(())
+                })?;
+                triangles = Some(t);
             }
-            _ => {
-                Parser::<Skip>::new()
-                    .read_payload_for_element(&mut reader, def, &header)
-                    .map_err(|e| ply_error(path, &e, Some((name, binary))))?;
-            }
+            _ => for_each_element(path, &mut reader, def, &header, |_, _: Skip| Ok(()))?,
         }
     }
-    let vertices = vertices.ok_or_else(|| SceneError::invalid(path, "PLY: no 'vertex' element"))?;
-    let faces = faces.ok_or_else(|| SceneError::invalid(path, "PLY: no 'face' element"))?;
-    let points: Vec<Vec3> = vertices
-        .iter()
-        .enumerate()
-        .map(|(i, v)| {
-            let c = v.0.map(|x| finite(x as f32));
-            match c {
-                [Ok(x), Ok(y), Ok(z)] => Ok(Vec3::new(x, y, z)),
-                _ => Err(SceneError::invalid(
-                    path,
-                    format!("PLY: vertex {i}: coordinate is NaN or infinite (or beyond f32)"),
-                )),
+    let points = points.ok_or_else(|| SceneError::invalid(path, "PLY: no 'vertex' element"))?;
+    let triangles = triangles.ok_or_else(|| SceneError::invalid(path, "PLY: no 'face' element"))?;
+    let mesh =
+        Mesh::new(points, triangles).map_err(|e| SceneError::invalid(path, format!("PLY: {e}")))?;
+    Ok(Scene::from_mesh(mesh.shared()))
+}
+
+/// Reads `def`'s elements one at a time and hands each to `take` with its index, so that a
+/// mesh of 10^8 faces is never held as ply-rs's elements (a heap list per face) beside the
+/// mesh made of them.
+fn for_each_element<E: PropertyAccess>(
+    path: &str,
+    reader: &mut Reader<std::io::BufReader<&[u8]>>,
+    def: &ply_rs_bw::ply::ElementDef,
+    header: &ply_rs_bw::ply::Header,
+    mut take: impl FnMut(usize, E) -> Result<(), SceneError>,
+) -> Result<(), SceneError> {
+    use ply_rs_bw::ply::Encoding;
+    use std::io::BufRead;
+    let parser = Parser::<E>::new();
+    let name = def.name.as_str();
+    let little = match header.encoding {
+        // Text files are small: read as the crate reads them, which counts their lines.
+        Encoding::Ascii => {
+            let all = parser
+                .read_payload_for_element(reader, def, header)
+                .map_err(|e| ply_error(path, &e, Some((name, false))))?;
+            for (i, e) in all.into_iter().enumerate() {
+                take(i, e)?;
             }
-        })
-        .collect::<Result<_, _>>()?;
-    let mut triangles = Vec::with_capacity(faces.len());
-    for (f, face) in faces.iter().enumerate() {
-        let mut idx = Vec::with_capacity(face.0.len());
-        for &i in &face.0 {
-            if i < 0 || i as usize >= points.len() {
+            return Ok(());
+        }
+        Encoding::BinaryLittleEndian => true,
+        Encoding::BinaryBigEndian => false,
+    };
+    for i in 0..def.count {
+        let read = if little {
+            parser.read_little_endian_element(reader.get_mut(), def)
+        } else {
+            parser.read_big_endian_element(reader.get_mut(), def)
+        };
+        match read {
+            Ok(e) => take(i, e)?,
+            // The crate names what it missed ("a list element at index 2"); the reader's
+            // own words are that the file ended.
+            Err(_) if reader.get_mut().fill_buf().is_ok_and(|b| b.is_empty()) => {
                 return Err(SceneError::invalid(
                     path,
                     format!(
-                        "PLY: face {f}: vertex index {i} out of range ({} vertices)",
-                        points.len()
+                        "PLY: Unexpected end of file while reading binary element '{name}' {i} of {}",
+                        def.count
                     ),
                 ));
             }
-            idx.push(points[i as usize]);
-        }
-        if idx.len() < 3 {
-            return Err(SceneError::invalid(
-                path,
-                format!("PLY: face {f}: {} vertices, need 3 or more", idx.len()),
-            ));
-        }
-        for k in 1..idx.len() - 1 {
-            triangles.push([idx[0], idx[k], idx[k + 1]]);
+            Err(e) => return Err(ply_error(path, &e, Some((name, true)))),
         }
     }
-    if triangles.len() >= u32::MAX as usize - 1 {
-        return Err(SceneError::invalid(path, "PLY: more than 2^32-2 triangles"));
-    }
-    Ok(Scene::from_triangles(triangles))
+    Ok(())
 }
 
 /// Refuses a header whose element counts the data cannot hold, before the parser reads them:

@@ -62,6 +62,7 @@ pub fn clustered_room(target_triangles: usize, seed: u64) -> Scene {
     let clusters = ((balls as f64).sqrt() / 8.0).ceil().clamp(1.0, 64.0) as usize;
     let mut scene = Scene {
         shapes: Vec::new(),
+        mesh: Default::default(),
         material_runs: Vec::new(),
         materials: vec![
             Material {

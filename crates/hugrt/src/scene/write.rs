@@ -1,7 +1,7 @@
 //! Writing scenes: NFF, which holds everything a [`Scene`] has, and binary PLY, which holds
 //! triangles only.
 
-use super::Scene;
+use super::{Scene, Terrain};
 use crate::Error;
 use crate::geometry::{Cone, Shape, Sphere, Vec3};
 use std::io::{self, Write};
@@ -45,6 +45,32 @@ pub fn save(scene: &Scene, path: &Path) -> Result<(), Error> {
     .map_err(|e| Error::write(path, e))
 }
 
+/// Writes generated scene `kind` to `path` as [`save`] would write
+/// [`generate`](super::generate::generate)'s scene, and returns its primitive and light
+/// counts; a terrain written as PLY is streamed ([`Terrain::write_ply`]), never held whole.
+pub fn save_generated(
+    kind: &str,
+    size: u32,
+    seed: u64,
+    path: &Path,
+) -> Result<(usize, usize), Error> {
+    let format = SceneFormat::for_path(path)?;
+    if kind == "terrain" && format == SceneFormat::Ply {
+        let terrain = Terrain::with_triangles(size as u64 * 1000, seed);
+        let file = std::fs::File::create(path).map_err(|e| Error::write(path, e))?;
+        let mut w = io::BufWriter::new(file);
+        terrain
+            .write_ply(&mut w)
+            .and_then(|()| w.flush())
+            .map_err(|e| Error::write(path, e))?;
+        return Ok((terrain.triangle_count(), 0));
+    }
+    let scene = super::generate::generate(kind, size, seed)
+        .ok_or_else(|| Error::Invalid(format!("unknown kind '{kind}'")))?;
+    save(&scene, path)?;
+    Ok((scene.len(), scene.lights.len()))
+}
+
 /// Writes `scene` as NFF: the view, background, lights (with their colours), then each
 /// material followed by its primitives. Numbers are written in the shortest form that reads
 /// back to the same `f32`, so the scene read back is the same scene, primitive for primitive.
@@ -63,7 +89,7 @@ pub fn write_nff(scene: &Scene, out: &mut impl Write) -> io::Result<()> {
         writeln!(out, "l {} {}", v(l.position), v(l.color))?;
     }
     let mut run = 0;
-    for (i, shape) in scene.shapes.iter().enumerate() {
+    for (i, shape) in scene.primitives().enumerate() {
         while run < scene.material_runs.len() && scene.material_runs[run].0 as usize <= i {
             let m = &scene.materials[scene.material_runs[run].1 as usize];
             writeln!(
@@ -81,7 +107,7 @@ pub fn write_nff(scene: &Scene, out: &mut impl Write) -> io::Result<()> {
         match shape {
             Shape::Triangle(t) => writeln!(out, "p 3\n{}\n{}\n{}", v(t[0]), v(t[1]), v(t[2]))?,
             Shape::Patch { v: t, normals } => {
-                let n = scene.patch_normals[*normals as usize];
+                let n = scene.patch_normals[normals as usize];
                 writeln!(out, "pp 3")?;
                 for k in 0..3 {
                     writeln!(out, "{} {}", v(t[k]), v(n[k]))?;
@@ -147,9 +173,10 @@ fn cone_triangles(k: &Cone, out: &mut Vec<[Vec3; 3]>) {
 }
 
 /// Writes `scene` as binary little-endian PLY (`float x y z`, `list uchar int` faces), the
-/// format of the yardstick meshes and embree-peer. Triangles and patches are written as they
-/// are, three vertices each, in primitive order; spheres and cones, which PLY cannot hold,
-/// become meshes of 16 sides (so primitive indices then differ from the scene's).
+/// format of the yardstick meshes and embree-peer, in primitive order: the shapes' triangles
+/// and patches three vertices each, then the mesh with its shared vertices. Spheres and cones,
+/// which PLY cannot hold, become meshes of 16 sides (so primitive indices then differ from the
+/// scene's).
 pub fn write_ply(scene: &Scene, out: &mut impl Write) -> io::Result<()> {
     let mut tris = Vec::with_capacity(scene.shapes.len());
     for s in &scene.shapes {
@@ -159,28 +186,48 @@ pub fn write_ply(scene: &Scene, out: &mut impl Write) -> io::Result<()> {
             Shape::Cone(k) => cone_triangles(k, &mut tris),
         }
     }
+    let mesh = &scene.mesh;
+    let soup_vertices = 3 * tris.len();
+    let too_many =
+        |what: &str| io::Error::other(format!("more than 2^31-1 {what} for PLY's int indices"));
+    if soup_vertices + mesh.vertices().len() > i32::MAX as usize {
+        return Err(too_many("vertices"));
+    }
     write!(
         out,
         "ply\nformat binary_little_endian 1.0\ncomment written by hugrt\n\
          element vertex {}\nproperty float x\nproperty float y\nproperty float z\n\
          element face {}\nproperty list uchar int vertex_indices\nend_header\n",
-        3 * tris.len(),
-        tris.len()
+        soup_vertices + mesh.vertices().len(),
+        tris.len() + mesh.len()
     )?;
-    let mut buf = Vec::with_capacity(36 * tris.len());
-    for t in &tris {
-        for p in t {
-            for x in p.to_array() {
-                buf.extend_from_slice(&x.to_le_bytes());
-            }
+    let points = tris.iter().flatten().chain(mesh.vertices());
+    let faces = (0..tris.len() as u32)
+        .map(|i| [3 * i, 3 * i + 1, 3 * i + 2])
+        .chain(
+            mesh.triangles()
+                .iter()
+                .map(|t| t.map(|k| k + soup_vertices as u32)),
+        );
+    // In chunks of 1 MB or so: a mesh of 10^8 triangles is written without a copy of it.
+    let mut buf = Vec::with_capacity(1 << 20);
+    for p in points {
+        for x in p.to_array() {
+            buf.extend_from_slice(&x.to_le_bytes());
+        }
+        if buf.len() >= 1 << 20 {
+            out.write_all(&buf)?;
+            buf.clear();
         }
     }
-    out.write_all(&buf)?;
-    buf.clear();
-    for i in 0..tris.len() as u32 {
+    for f in faces {
         buf.push(3);
-        for k in 0..3 {
-            buf.extend_from_slice(&(3 * i + k).to_le_bytes());
+        for k in f {
+            buf.extend_from_slice(&k.to_le_bytes());
+        }
+        if buf.len() >= 1 << 20 {
+            out.write_all(&buf)?;
+            buf.clear();
         }
     }
     out.write_all(&buf)
