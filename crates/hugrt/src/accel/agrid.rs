@@ -43,7 +43,7 @@ use super::bvh::BoxTree;
 use super::grid::{PRUNE_HELP, SIMD_HELP, store_with_boxes};
 use super::hierarchy::{GridHierarchy, GridPlan, LevelView, Prune, Resolution, Subdivision};
 use super::settings::{Key, Settings, key};
-use super::store::finite;
+use super::store::{TriangleStorage, finite};
 use super::{Accel, CellCensus, Counters, HitSink, Mailbox, Primitives, SpecError, StructureStats};
 use crate::geometry::{Aabb, PreparedRay, Ray};
 
@@ -159,7 +159,7 @@ impl Accel for AdaptiveGrid {
         let settings = *settings;
         let prune = settings.prune;
         let n = prims.len();
-        let (store, boxes) = store_with_boxes(prims)?;
+        let (store, boxes) = store_with_boxes(prims, TriangleStorage::Copy)?;
         let order: Vec<u32> = (0..n as u32)
             .filter(|&s| finite(&boxes[s as usize]))
             .collect();

@@ -12,6 +12,7 @@
 
 use super::hierarchy::{GridHierarchy, GridPlan, LevelView, Prune, Resolution};
 use super::settings::{Key, Settings, key};
+use super::store::{STORAGE_HELP, TriangleStorage};
 use super::{
     Accel, CellCensus, Counters, HitSink, PrimStore, Primitives, SpecError, StructureStats,
 };
@@ -36,6 +37,8 @@ pub struct GridSettings {
     pub shift: bool,
     /// Triangles tested eight at a time where AVX2 is present.
     pub simd: bool,
+    /// How the store holds an indexed mesh's triangles.
+    pub store: TriangleStorage,
 }
 
 impl Default for GridSettings {
@@ -45,6 +48,7 @@ impl Default for GridSettings {
             prune: Prune::None,
             shift: true,
             simd: true,
+            store: TriangleStorage::Auto,
         }
     }
 }
@@ -61,6 +65,7 @@ impl Settings for GridSettings {
         key!("prune", prune: Prune, (), PRUNE_HELP),
         key!("shift", shift: bool, (), SHIFT_HELP),
         key!("simd", simd: bool, (), SIMD_HELP),
+        key!("store", store: TriangleStorage, (), STORAGE_HELP),
     ];
 }
 
@@ -75,10 +80,11 @@ pub struct Grid {
 /// boxes; fails for scenes too large ([`check_size`]).
 pub(crate) fn store_with_boxes<P: Primitives>(
     prims: &P,
+    storage: TriangleStorage,
 ) -> Result<(PrimStore, Vec<Aabb>), SpecError> {
     use rayon::prelude::*;
     check_size(prims.len())?;
-    let store = PrimStore::build(prims);
+    let store = PrimStore::build_with(prims, storage);
     let boxes = (0..prims.len() as u32)
         .into_par_iter()
         .map(|s| store.bounds(prims, s))
@@ -106,10 +112,11 @@ impl Accel for Grid {
             prune,
             shift,
             simd,
+            store,
         } = *settings;
         let n = prims.len();
         check_size(n)?;
-        let store = PrimStore::build(prims);
+        let store = PrimStore::build_with(prims, store);
         let plan = GridPlan {
             objects: (0..n as u32).collect(),
             children: Vec::new(),

@@ -70,7 +70,7 @@ pub mod presets {
         ("kdtree", KDTREE_HAVRAN),
     ];
 }
-pub use store::PrimStore;
+pub use store::{PrimStore, TriangleStorage};
 
 use crate::geometry::{Aabb, Cone, PreparedRay, Ray, Sphere, Vec3};
 use glam::DVec3;
@@ -105,6 +105,17 @@ pub trait Primitives: Sync {
     /// bit for bit the same hits. The default keeps every primitive opaque.
     fn kind(&self, _i: usize) -> PrimitiveKind {
         PrimitiveKind::Opaque
+    }
+    /// Primitive `i`'s vertex indices into [`Primitives::shared_vertices`], when it is a
+    /// triangle of an indexed mesh. The contract: [`Primitives::kind`] of `i` is then
+    /// `Triangle(indices.map(|k| vertices[k]))`. A structure built with `store=index` tests
+    /// such triangles through the indices and the shared vertices, copying neither.
+    fn mesh_triangle(&self, _i: usize) -> Option<[u32; 3]> {
+        None
+    }
+    /// The vertices [`Primitives::mesh_triangle`] indexes, shared with the structures.
+    fn shared_vertices(&self) -> Option<std::sync::Arc<Vec<Vec3>>> {
+        None
     }
 }
 

@@ -36,27 +36,73 @@ pub fn available() -> bool {
     }
 }
 
-/// Tests the triangles `tris[idx[k]]`, `k < 8`, against `ray`.
+/// Where the kernel reads the triangles.
+pub enum Source<'a> {
+    /// Triangle `i` is `tris[i]`.
+    Copied(&'a [[Vec3; 3]]),
+    /// Triangle `i` is `indices[i].map(|k| vertices[k])`.
+    Indexed {
+        indices: &'a [[u32; 3]],
+        vertices: &'a [Vec3],
+    },
+}
+
+/// Tests the triangles `idx[k]`, `k < 8`, of `source` against `ray`.
 ///
 /// # Safety
-/// The processor must support AVX2 ([`available`]), and every `idx[k]` must index `tris`, with
-/// `9 · tris.len()` below `i32::MAX` (the gathers take 32-bit offsets).
+/// The processor must support AVX2 ([`available`]), and every `idx[k]` must be a triangle of
+/// `source`, whose gathers take 32-bit offsets: for copies, `9 · tris.len()` below
+/// `i32::MAX`; indexed, `3 · indices.len()` and `3 · vertices.len()` below `i32::MAX` and
+/// every index of `indices` below `vertices.len()`.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-pub unsafe fn triangles8(tris: &[[Vec3; 3]], idx: &[u32; 8], ray: &PreparedRay) -> Lanes {
+pub unsafe fn triangles8(source: Source<'_>, idx: &[u32; 8], ray: &PreparedRay) -> Lanes {
     use std::arch::x86_64::*;
-    debug_assert!(idx.iter().all(|&i| (i as usize) < tris.len()));
-    debug_assert!(tris.len() * 9 < i32::MAX as usize);
-    let base = tris.as_ptr().cast::<f32>();
     // SAFETY: `idx` is eight u32, read unaligned.
     let idx = unsafe { _mm256_loadu_si256(idx.as_ptr().cast()) };
-    let offs = _mm256_mullo_epi32(idx, _mm256_set1_epi32(9));
     // (Macros rather than closures: the intrinsics must be inlined into this AVX2 function.)
+    macro_rules! plus {
+        ($v:expr, $j:expr) => {
+            _mm256_add_epi32($v, _mm256_set1_epi32($j))
+        };
+    }
+    // `base` and, per vertex of the triangle, each lane's offset of its x in floats.
+    let (base, offs): (*const f32, [__m256i; 3]) = match source {
+        Source::Copied(tris) => {
+            debug_assert!(tris.len() * 9 < i32::MAX as usize);
+            let first = _mm256_mullo_epi32(idx, _mm256_set1_epi32(9));
+            (
+                tris.as_ptr().cast(),
+                [first, plus!(first, 3), plus!(first, 6)],
+            )
+        }
+        Source::Indexed { indices, vertices } => {
+            debug_assert!(indices.len() * 3 < i32::MAX as usize);
+            debug_assert!(vertices.len() * 3 < i32::MAX as usize);
+            let at = _mm256_mullo_epi32(idx, _mm256_set1_epi32(3));
+            let ibase = indices.as_ptr().cast::<i32>();
+            macro_rules! vertex {
+                ($v:expr) => {
+                    _mm256_mullo_epi32(
+                        // SAFETY: lane `k` reads index `3·idx[k] + v`, `v < 3`, of a live
+                        // triangle's indices, in bounds by the contract.
+                        unsafe { _mm256_i32gather_epi32::<4>(ibase, plus!(at, $v)) },
+                        _mm256_set1_epi32(3),
+                    )
+                };
+            }
+            (
+                vertices.as_ptr().cast(),
+                [vertex!(0), vertex!(1), vertex!(2)],
+            )
+        }
+    };
     macro_rules! load {
-        ($j:expr) => {
-            // SAFETY: lane `k` reads float `9·idx[k] + j`, `j < 9`, of a live triangle, in
-            // bounds by the contract.
-            unsafe { _mm256_i32gather_ps::<4>(base, _mm256_add_epi32(offs, _mm256_set1_epi32($j))) }
+        ($v:expr, $c:expr) => {
+            // SAFETY: lane `k` reads coordinate `c < 3` of vertex `v` of triangle `idx[k]`:
+            // in a copy, float `9·idx[k] + 3v + c`; indexed, float `3·indices[idx[k]][v] + c`;
+            // in bounds by the contract either way.
+            unsafe { _mm256_i32gather_ps::<4>(base, plus!(offs[$v], $c)) }
         };
     }
     macro_rules! s {
@@ -81,9 +127,9 @@ pub unsafe fn triangles8(tris: &[[Vec3; 3]], idx: &[u32; 8], ray: &PreparedRay) 
     macro_rules! vertex {
         ($v:expr) => {
             [
-                _mm256_sub_ps(load!(3 * $v), s!(o.x)),
-                _mm256_sub_ps(load!(3 * $v + 1), s!(o.y)),
-                _mm256_sub_ps(load!(3 * $v + 2), s!(o.z)),
+                _mm256_sub_ps(load!($v, 0), s!(o.x)),
+                _mm256_sub_ps(load!($v, 1), s!(o.y)),
+                _mm256_sub_ps(load!($v, 2), s!(o.z)),
             ]
         };
     }

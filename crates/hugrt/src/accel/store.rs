@@ -15,6 +15,11 @@
 //! Primitives of no kind the store knows ([`PrimitiveKind::Opaque`]) are kept by index after
 //! the others and intersected through [`Primitives::intersect`].
 //!
+//! With `store=index` ([`TriangleStorage::Index`]), the triangles of an indexed mesh are kept
+//! as their three vertex indices (12 bytes) into the mesh's own vertices, shared with the
+//! scene ([`Primitives::shared_vertices`]), instead of a 36-byte copy: a test then reads the
+//! indices, then the vertices they name, where the copy reads one line.
+//!
 //! The store calls the same intersection functions as the scene's shapes
 //! ([`intersect_triangle`], [`Sphere::intersect`], [`Cone::intersect`]) on the same numbers, so
 //! a hit found through the store is bit for bit the hit brute force finds.
@@ -25,8 +30,45 @@ use super::{Counters, HitSink, PrimitiveKind, Primitives, Reach, simd};
 use crate::geometry::{Aabb, Cone, PreparedRay, Sphere, Vec3, crossing_t, intersect_triangle};
 use rayon::prelude::*;
 
+/// How a store holds the triangles (the grid structures' `store` key).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TriangleStorage {
+    /// Each triangle's three vertices, 36 bytes, in store order: a test reads one line.
+    Copy,
+    /// An indexed mesh's triangles as three indices into its vertices, which the scene and
+    /// the structure share: 12 bytes a triangle, two dependent reads a test. Primitives that
+    /// are not triangles of an indexed mesh ([`Primitives::mesh_triangle`]) make the store
+    /// fall back to copies.
+    Index,
+    /// [`TriangleStorage::Index`] from [`INDEX_FROM`] primitives, [`TriangleStorage::Copy`]
+    /// below.
+    Auto,
+}
+
+/// Where `store=auto` stops copying triangles: 2^24 primitives. Measured on the bunny and a
+/// 1M-triangle terrain (`docs/measurements.md`), the indexed store costs the HUG 0–25% of its
+/// incoherent throughput (two dependent reads a test, vertices farther apart than a cell's
+/// triangles) and saves 24 bytes a triangle; below 2^24 triangles that is at most 400 MB,
+/// above it memory is what limits the scene a machine can hold.
+pub const INDEX_FROM: usize = 1 << 24;
+
+crate::accel::settings::choice_value!(TriangleStorage {
+    TriangleStorage::Copy => "copy",
+    TriangleStorage::Index => "index",
+    TriangleStorage::Auto => "auto"
+});
+
+/// The help of the `store` key.
+pub(crate) const STORAGE_HELP: &str = "index: test an indexed mesh's triangles through their vertex indices and the scene's shared vertices (12 bytes a triangle, no copy); copy: a 36-byte copy of each triangle in store order (faster); auto: index from 2^24 primitives";
+
 pub struct PrimStore {
+    /// The triangles' vertices ([`TriangleStorage::Copy`]); empty when indexed.
     tris: Vec<[Vec3; 3]>,
+    /// The triangles' vertex indices into `vertices` ([`TriangleStorage::Index`]).
+    tri_indices: Vec<[u32; 3]>,
+    /// The mesh's vertices, shared with the scene, when the triangles are indexed: every
+    /// index of `tri_indices` is below its length (checked by [`PrimStore::build_with`]).
+    vertices: Option<std::sync::Arc<Vec<Vec3>>>,
     spheres: Vec<Sphere>,
     cones: Vec<Cone>,
     /// First store index of spheres, cones and opaque primitives.
@@ -68,10 +110,17 @@ fn morton(p: Vec3, b: &Aabb) -> u32 {
 }
 
 impl PrimStore {
-    /// Copies the primitives into store order: by kind, then by the Morton code of the box
-    /// centre. The codes are taken inside the box of a sample of the primitives (clamped at
-    /// its sides): an order, not a bound, so it needs no exact box.
+    /// Copies the primitives into store order ([`PrimStore::build_with`] with
+    /// [`TriangleStorage::Copy`]).
     pub fn build<P: Primitives>(prims: &P) -> PrimStore {
+        PrimStore::build_with(prims, TriangleStorage::Copy)
+    }
+
+    /// Puts the primitives in store order: by kind, then by the Morton code of the box
+    /// centre. The codes are taken inside the box of a sample of the primitives (clamped at
+    /// its sides): an order, not a bound, so it needs no exact box. Triangles are held as
+    /// `storage` says, where the primitives allow it.
+    pub fn build_with<P: Primitives>(prims: &P, storage: TriangleStorage) -> PrimStore {
         let n = prims.len();
         assert!(n < u32::MAX as usize, "at most 2^32-2 primitives");
         let step = (n / 4096).max(1);
@@ -105,13 +154,36 @@ impl PrimStore {
         let id = |k: u64| (k & 0xffff_ffff) as usize;
         let start = |r: u64| keys.partition_point(|&k| k >> 62 < r);
         let (sphere_start, cone_start, opaque_start) = (start(1), start(2), start(3));
-        let tris = keys[..sphere_start]
-            .par_iter()
-            .map(|&k| match prims.kind(id(k)) {
-                PrimitiveKind::Triangle(v) => v,
-                _ => unreachable!("sorted by kind"),
-            })
-            .collect();
+        let index = match storage {
+            TriangleStorage::Index => true,
+            TriangleStorage::Copy => false,
+            TriangleStorage::Auto => n >= INDEX_FROM,
+        };
+        let shared = if index { prims.shared_vertices() } else { None };
+        // Indexed only when every triangle is an indexed mesh's, its indices in range.
+        let tri_indices = shared.as_ref().and_then(|v| {
+            keys[..sphere_start]
+                .par_iter()
+                .map(|&k| {
+                    prims
+                        .mesh_triangle(id(k))
+                        .filter(|t| t.iter().all(|&i| (i as usize) < v.len()))
+                })
+                .collect::<Option<Vec<[u32; 3]>>>()
+        });
+        let (tris, tri_indices, vertices) = match tri_indices {
+            Some(indices) => (Vec::new(), indices, shared),
+            None => {
+                let tris = keys[..sphere_start]
+                    .par_iter()
+                    .map(|&k| match prims.kind(id(k)) {
+                        PrimitiveKind::Triangle(v) => v,
+                        _ => unreachable!("sorted by kind"),
+                    })
+                    .collect();
+                (tris, Vec::new(), None)
+            }
+        };
         let spheres = keys[sphere_start..cone_start]
             .par_iter()
             .map(|&k| match prims.kind(id(k)) {
@@ -129,6 +201,8 @@ impl PrimStore {
         PrimStore {
             reach: Reach::of(prims),
             tris,
+            tri_indices,
+            vertices,
             spheres,
             cones,
             sphere_start: sphere_start as u32,
@@ -151,15 +225,38 @@ impl PrimStore {
         self.ids.is_empty()
     }
 
-    /// The triangles, store entries `0..triangle_count()`.
-    pub(crate) fn triangles(&self) -> &[[Vec3; 3]] {
+    /// The number of triangles: store entries `0..triangle_count()`.
+    pub(crate) fn triangle_count(&self) -> usize {
+        self.sphere_start as usize
+    }
+
+    /// The triangles' copies, when the store holds them as copies (empty when indexed).
+    pub(crate) fn copied_triangles(&self) -> &[[Vec3; 3]] {
         &self.tris
+    }
+
+    /// How the triangles are held: [`TriangleStorage::Copy`] or [`TriangleStorage::Index`].
+    pub fn storage(&self) -> TriangleStorage {
+        match self.vertices {
+            Some(_) => TriangleStorage::Index,
+            None => TriangleStorage::Copy,
+        }
+    }
+
+    /// The vertices of triangle entry `s` (`s < triangle_count()`).
+    #[inline(always)]
+    fn tri(&self, s: u32) -> [Vec3; 3] {
+        match &self.vertices {
+            None => self.tris[s as usize],
+            Some(v) => self.tri_indices[s as usize].map(|k| v[k as usize]),
+        }
     }
 
     /// Frees the triangles, for a structure that keeps its own copy: triangle entries can then
     /// no longer be intersected or bounded through the store (their indices panic).
     pub(crate) fn release_triangles(&mut self) {
         self.tris = Vec::new();
+        self.tri_indices = Vec::new();
     }
 
     /// The primitive's own index (what hits report) of store entry `s`.
@@ -173,12 +270,25 @@ impl PrimStore {
     #[inline(always)]
     pub fn prefetch(&self, s: u32) {
         #[cfg(target_arch = "x86_64")]
-        if let Some(t) = self.tris.get(s as usize) {
+        {
             use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
-            // SAFETY: `_mm_prefetch` needs SSE, which is part of every x86_64 target's
-            // baseline; a prefetch is a hint to the cache that never faults and changes
-            // nothing the program can observe, and the address is that of a live element.
-            unsafe { _mm_prefetch::<_MM_HINT_T0>((t as *const [Vec3; 3]).cast::<i8>()) };
+            // Indexed: the indices, which the vertices' loads wait for.
+            let line = match self.vertices {
+                None => self
+                    .tris
+                    .get(s as usize)
+                    .map(|t| (t as *const [Vec3; 3]).cast::<i8>()),
+                Some(_) => self
+                    .tri_indices
+                    .get(s as usize)
+                    .map(|t| (t as *const [u32; 3]).cast::<i8>()),
+            };
+            if let Some(p) = line {
+                // SAFETY: `_mm_prefetch` needs SSE, which is part of every x86_64 target's
+                // baseline; a prefetch is a hint to the cache that never faults and changes
+                // nothing the program can observe, and the address is that of a live element.
+                unsafe { _mm_prefetch::<_MM_HINT_T0>(p) };
+            }
         }
         #[cfg(not(target_arch = "x86_64"))]
         let _ = s;
@@ -196,7 +306,7 @@ impl PrimStore {
         tmax: f32,
     ) -> Option<f32> {
         if s < self.sphere_start {
-            intersect_triangle(ray, &self.tris[s as usize], tmin, tmax)
+            intersect_triangle(ray, &self.tri(s), tmin, tmax)
         } else {
             self.intersect_other(prims, s, ray, tmin, tmax)
         }
@@ -226,9 +336,8 @@ impl PrimStore {
     /// `level`. Returns `true` when the sink stops the walk.
     ///
     /// # Safety
-    /// The processor must support AVX2 ([`simd::available`]), `9 · triangles().len()` must be
-    /// below `i32::MAX`, and every entry of `batch` must be a triangle's (below
-    /// `triangles().len()`).
+    /// The processor must support AVX2 ([`simd::available`]), [`PrimStore::simd_fits`] must
+    /// hold, and every entry of `batch` must be a triangle's (below `triangle_count()`).
     #[cfg(target_arch = "x86_64")]
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
@@ -243,8 +352,17 @@ impl PrimStore {
         counters: &mut C,
         level: usize,
     ) -> bool {
-        // SAFETY: the caller's contract is the kernel's.
-        let lanes = unsafe { simd::triangles8(&self.tris, batch, ray) };
+        let source = match &self.vertices {
+            None => simd::Source::Copied(&self.tris),
+            Some(v) => simd::Source::Indexed {
+                indices: &self.tri_indices,
+                vertices: v,
+            },
+        };
+        // SAFETY: the caller's contract is the kernel's: AVX2, the offsets within i32
+        // (`simd_fits`), every batched entry a triangle's, and (built so) every index of
+        // `tri_indices` below the vertices' length.
+        let lanes = unsafe { simd::triangles8(source, batch, ray) };
         for _ in 0..n {
             counters.prim_test(level);
         }
@@ -255,7 +373,7 @@ impl PrimStore {
             let t = if lanes.scalar >> l & 1 != 0 {
                 self.intersect(prims, batch[l], ray, tmin, sink.tmax())
             } else {
-                crossing_t(&self.tris[batch[l] as usize], &ray.ray, tmin, sink.tmax())
+                crossing_t(&self.tri(batch[l]), &ray.ray, tmin, sink.tmax())
             };
             if let Some(t) = t {
                 counters.prim_hit(level);
@@ -267,12 +385,22 @@ impl PrimStore {
         false
     }
 
+    /// Whether the eight-lane kernel's 32-bit gather offsets reach every triangle.
+    pub(crate) fn simd_fits(&self) -> bool {
+        match &self.vertices {
+            None => self.tris.len() * 9 < i32::MAX as usize,
+            Some(v) => {
+                self.tri_indices.len() * 3 < i32::MAX as usize && v.len() * 3 < i32::MAX as usize
+            }
+        }
+    }
+
     /// The box of store entry `s`: what `prims.bounds(self.id(s))` gives, recomputed from the
     /// compact copy (the same arithmetic as the scene's shapes) rather than stored.
     #[inline]
     pub fn bounds<P: Primitives>(&self, prims: &P, s: u32) -> Aabb {
         if s < self.sphere_start {
-            Aabb::from_points(&self.tris[s as usize])
+            Aabb::from_points(&self.tri(s))
         } else if s < self.cone_start {
             self.spheres[(s - self.sphere_start) as usize].bounds()
         } else if s < self.opaque_start {
@@ -283,15 +411,15 @@ impl PrimStore {
     }
 
     /// The vertices of store entry `s`, if it is a triangle.
-    pub fn triangle(&self, s: u32) -> Option<&[Vec3; 3]> {
-        self.tris.get(s as usize)
+    pub fn triangle(&self, s: u32) -> Option<[Vec3; 3]> {
+        (s < self.sphere_start).then(|| self.tri(s))
     }
 
     /// Box of store entry `s` in frame `f` (`world` is its world-space box): tight for
     /// triangles, spheres and cones, the turned world box otherwise.
     pub(crate) fn local_bounds(&self, s: u32, f: &Frame, world: &Aabb) -> Aabb {
         if s < self.sphere_start {
-            Aabb::from_points(&self.tris[s as usize].map(|v| f.point(v)))
+            Aabb::from_points(&self.tri(s).map(|v| f.point(v)))
         } else if s < self.cone_start {
             let sp = &self.spheres[(s - self.sphere_start) as usize];
             Sphere {
@@ -312,9 +440,10 @@ impl PrimStore {
         }
     }
 
-    /// Bytes held by the store.
+    /// Bytes held by the store (an indexed store's vertices are the scene's, not counted).
     pub fn memory_bytes(&self) -> usize {
         self.tris.capacity() * std::mem::size_of::<[Vec3; 3]>()
+            + self.tri_indices.capacity() * 12
             + self.spheres.capacity() * std::mem::size_of::<Sphere>()
             + self.cones.capacity() * std::mem::size_of::<Cone>()
             + self.ids.capacity() * 4
@@ -324,6 +453,43 @@ impl PrimStore {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_indexed_store_holds_indices_and_finds_the_same_triangles() {
+        use crate::geometry::{Shape, Sphere};
+        use crate::scene::{Mesh, Scene};
+        let v: Vec<Vec3> = (0..40)
+            .map(|i| Vec3::new((i % 7) as f32, (i % 5) as f32 * 0.5, (i / 3) as f32))
+            .collect();
+        let t: Vec<[u32; 3]> = (0..30u32).map(|i| [i, i + 3, i + 7]).collect();
+        let mut scene = Scene::from_mesh(Mesh::new(v, t).unwrap());
+        let copy = PrimStore::build_with(&scene, TriangleStorage::Copy);
+        let index = PrimStore::build_with(&scene, TriangleStorage::Index);
+        assert_eq!(copy.storage(), TriangleStorage::Copy);
+        assert_eq!(index.storage(), TriangleStorage::Index);
+        assert_eq!(
+            PrimStore::build_with(&scene, TriangleStorage::Auto).storage(),
+            TriangleStorage::Copy,
+            "auto copies below INDEX_FROM"
+        );
+        assert!(index.memory_bytes() < copy.memory_bytes() / 2);
+        for s in 0..copy.len() as u32 {
+            assert_eq!(index.id(s), copy.id(s));
+            assert_eq!(index.triangle(s), copy.triangle(s));
+            assert_eq!(index.bounds(&scene, s), copy.bounds(&scene, s));
+        }
+        // A shape that is no mesh triangle: the store copies.
+        scene
+            .shapes
+            .push(Shape::Triangle([Vec3::ZERO, Vec3::X, Vec3::Y]));
+        scene.shapes.push(Shape::Sphere(Sphere {
+            center: Vec3::ONE,
+            radius: 1.0,
+        }));
+        let mixed = PrimStore::build_with(&scene, TriangleStorage::Index);
+        assert_eq!(mixed.storage(), TriangleStorage::Copy);
+        assert_eq!(mixed.triangle_count(), 31);
+    }
 
     #[test]
     fn morton_interleaves_axes() {

@@ -9,13 +9,18 @@
 
 use crate::geometry::{Vec3, tiny_coordinates_zeroed as zeroed};
 use rustc_hash::FxHashMap;
+use std::sync::Arc;
 
 /// A triangle mesh: shared vertices and triangles as index triples into them. Every index is
 /// in range and every coordinate finite ([`Mesh::new`] checks), so that a triangle can be
 /// looked up without a check that could fail.
+///
+/// The vertices are shared ([`Arc`]) with the structures that test rays against the mesh's
+/// triangles by index instead of copying them (`store=index`): cloning a mesh or building
+/// such a structure copies no vertex.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Mesh {
-    vertices: Vec<Vec3>,
+    vertices: Arc<Vec<Vec3>>,
     triangles: Vec<[u32; 3]>,
 }
 
@@ -65,7 +70,7 @@ impl Mesh {
             *v = zeroed(*v);
         }
         Ok(Mesh {
-            vertices,
+            vertices: Arc::new(vertices),
             triangles,
         })
     }
@@ -97,7 +102,7 @@ impl Mesh {
             .collect();
         vertices.shrink_to_fit();
         Mesh {
-            vertices,
+            vertices: Arc::new(vertices),
             triangles,
         }
     }
@@ -129,12 +134,17 @@ impl Mesh {
             *t = t.map(|k| remap[k as usize]);
         }
         vertices.shrink_to_fit();
-        self.vertices = vertices;
+        self.vertices = Arc::new(vertices);
         self
     }
 
     pub fn vertices(&self) -> &[Vec3] {
         &self.vertices
+    }
+
+    /// The vertices, shared: what a structure that tests the triangles by index keeps.
+    pub fn shared_vertices(&self) -> Arc<Vec<Vec3>> {
+        Arc::clone(&self.vertices)
     }
 
     pub fn triangles(&self) -> &[[u32; 3]] {
@@ -158,19 +168,6 @@ impl Mesh {
     /// Bytes held by the vertices and indices.
     pub fn memory_bytes(&self) -> usize {
         self.vertices.capacity() * 12 + self.triangles.capacity() * 12
-    }
-
-    /// Appends `other`'s triangles after this mesh's, its vertices after these.
-    pub fn append(&mut self, other: &Mesh) -> Result<(), MeshError> {
-        let total = self.triangles.len() + other.triangles.len();
-        if total > MAX_PRIMITIVES {
-            return Err(MeshError::TooManyTriangles(total));
-        }
-        let base = self.vertices.len() as u32;
-        self.vertices.extend_from_slice(&other.vertices);
-        self.triangles
-            .extend(other.triangles.iter().map(|t| t.map(|k| k + base)));
-        Ok(())
     }
 }
 
@@ -230,17 +227,5 @@ mod tests {
         assert_eq!(Mesh::new(bad, vec![]), Err(MeshError::NotFinite(2)));
         let tiny = Mesh::new(vec![Vec3::splat(1e-35), Vec3::X, Vec3::Y], vec![[0, 1, 2]]);
         assert_eq!(tiny.unwrap().vertices()[0], Vec3::ZERO);
-    }
-
-    #[test]
-    fn append_offsets_the_indices() {
-        let v = vec![Vec3::ZERO, Vec3::X, Vec3::Y];
-        let mut a = Mesh::new(v.clone(), vec![[0, 1, 2]]).unwrap();
-        let b = Mesh::new(v.iter().map(|p| *p + Vec3::Z).collect(), vec![[2, 1, 0]]).unwrap();
-        a.append(&b).unwrap();
-        assert_eq!(
-            a.triangle(1),
-            [Vec3::Y, Vec3::X, Vec3::ZERO].map(|p| p + Vec3::Z)
-        );
     }
 }

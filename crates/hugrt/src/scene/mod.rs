@@ -376,6 +376,13 @@ impl Primitives for Scene {
     fn overlaps_box(&self, i: usize, b: &Aabb) -> bool {
         self.shape(i).overlaps_box(b)
     }
+    fn mesh_triangle(&self, i: usize) -> Option<[u32; 3]> {
+        let k = i.checked_sub(self.shapes.len())?;
+        self.mesh.triangles().get(k).copied()
+    }
+    fn shared_vertices(&self) -> Option<std::sync::Arc<Vec<Vec3>>> {
+        Some(self.mesh.shared_vertices())
+    }
     fn kind(&self, i: usize) -> PrimitiveKind {
         match self.shape(i) {
             Shape::Triangle(v) | Shape::Patch { v, .. } => PrimitiveKind::Triangle(v),

@@ -73,6 +73,12 @@ pub fn specs() -> Vec<String> {
             "grid:simd=false",
             "hug:simd=false,filter=levels,min_cluster=1,loose=1e30",
             "rgrid:simd=false,maxp=4",
+            // Triangles tested through their mesh's indices (where the scene is a mesh), by
+            // eight and one at a time.
+            "grid:store=index",
+            "hug:store=index,filter=levels,min_cluster=1,loose=1e30,pca=true",
+            "grid:store=index,simd=false,density=8",
+            "hug:store=index,simd=false",
         ]
         .map(String::from),
     );
@@ -91,9 +97,20 @@ pub fn v3(r: &mut Pcg64Mcg, lo: f32, hi: f32) -> Vec3 {
     )
 }
 
+/// A scene of `shapes`: an indexed mesh when they are all plain triangles (as a loaded mesh
+/// is, so that `store=index` is tested), shapes otherwise.
 pub fn scene_of(shapes: Vec<Shape>) -> Scene {
-    let tris: Vec<[Vec3; 3]> = Vec::new();
-    let mut s = Scene::from_triangles(tris);
+    let tris: Option<Vec<[Vec3; 3]>> = shapes
+        .iter()
+        .map(|s| match s {
+            Shape::Triangle(v) => Some(*v),
+            _ => None,
+        })
+        .collect();
+    if let Some(tris) = tris {
+        return Scene::from_triangles(tris);
+    }
+    let mut s = Scene::from_triangles(Vec::new());
     s.shapes = shapes;
     s
 }

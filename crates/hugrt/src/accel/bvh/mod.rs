@@ -44,7 +44,7 @@ use flatten::{Flattened, Part, flatten};
 use super::block::{self, Block, LANES};
 use super::margin::margin_for;
 use super::settings::{Key, Settings, key};
-use super::store::{PrimStore, finite};
+use super::store::{PrimStore, TriangleStorage, finite};
 use super::{Accel, CellCensus, Counters, HitSink, Primitives, SpecError, StructureStats};
 use crate::geometry::Ray;
 use glam::Vec4;
@@ -185,7 +185,15 @@ impl Accel for Bvh {
                 "{n} primitives and {budget} extra references: the bvh holds at most 2^27-1"
             )));
         }
-        let store = PrimStore::build(prims);
+        // The blocks copy the triangles, so the store needs none of its own while the tree is
+        // built: an indexed mesh's are read through its indices (24 bytes a triangle less at
+        // the build's peak). Spatial splits clip the triangles from copies.
+        let storage = if budget > 0 {
+            TriangleStorage::Copy
+        } else {
+            TriangleStorage::Index
+        };
+        let store = PrimStore::build_with(prims, storage);
         use rayon::prelude::*;
         let mut items: Vec<Item> = (0..store.len() as u32)
             .into_par_iter()
@@ -210,7 +218,7 @@ impl Accel for Bvh {
         let ext = extents(&items);
         let (root, items) = if budget > 0 {
             let ctx = SpatialContext {
-                tris: store.triangles(),
+                tris: store.copied_triangles(),
                 margin,
                 root_area: ext.0.surface_area(),
             };
@@ -241,7 +249,7 @@ impl Accel for Bvh {
                 for (l, it) in lanes.iter().enumerate() {
                     let s = it.slot();
                     match store.triangle(s) {
-                        Some(t) => block.set(l, t, store.id(s)),
+                        Some(t) => block.set(l, &t, store.id(s)),
                         None => block.ids[l] = OTHER_LANE | s,
                     }
                 }
@@ -253,7 +261,7 @@ impl Accel for Bvh {
             nodes,
             blocks,
             filled,
-            others: store.triangles().len() < store.len(),
+            others: store.triangle_count() < store.len(),
             store,
             leaf_size,
             bins,

@@ -237,7 +237,7 @@ impl GridHierarchy {
         let cells = CellIndex::from_sorted(&pairs, total_cells as usize);
         let refs: Vec<u32> = pairs.par_iter().map(|&p| p as u32).collect();
         drop(pairs);
-        let simd = simd && simd::available() && store.triangles().len() * 9 < i32::MAX as usize;
+        let simd = simd && simd::available() && store.simd_fits();
         Ok(GridHierarchy {
             store,
             grids,

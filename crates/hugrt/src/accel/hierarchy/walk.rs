@@ -206,8 +206,8 @@ impl GridHierarchy {
         let mut rest = refs;
         #[cfg(target_arch = "x86_64")]
         if self.simd && refs.len() >= 2 {
-            let triangles = self.store.triangles();
-            let tri_count = refs.partition_point(|&r| (r as usize) < triangles.len());
+            let triangles = self.store.triangle_count();
+            let tri_count = refs.partition_point(|&r| (r as usize) < triangles);
             rest = &refs[tri_count..];
             let mut batch = [0u32; 8];
             let mut n = 0;

@@ -421,7 +421,7 @@ impl ContainerIndex {
 /// of anything else's box.
 fn object_points(store: &PrimStore, boxes: &[Aabb], s: u32, out: &mut Vec<Vec3>) {
     if let Some(v) = store.triangle(s) {
-        out.extend_from_slice(v);
+        out.extend_from_slice(&v);
     } else {
         let b = &boxes[s as usize];
         for k in 0..8 {

@@ -47,6 +47,7 @@ use super::Prune;
 use super::grid::{PRUNE_HELP, SHIFT_HELP, SIMD_HELP, store_with_boxes};
 use super::hierarchy::{GridHierarchy, LevelView};
 use super::settings::{Key, Settings, key};
+use super::store::{STORAGE_HELP, TriangleStorage};
 use super::{Accel, CellCensus, Counters, HitSink, Preset, Primitives, SpecError, StructureStats};
 use crate::geometry::Ray;
 
@@ -98,6 +99,7 @@ pub const DEFAULTS: HugSettings = HugSettings {
     prune: Prune::Large,
     shift: true,
     simd: true,
+    store: TriangleStorage::Auto,
 };
 
 /// How objects are filtered by size (step 1).
@@ -191,6 +193,8 @@ pub struct HugSettings {
     pub shift: bool,
     /// Triangles tested eight at a time where AVX2 is present.
     pub simd: bool,
+    /// How the store holds an indexed mesh's triangles.
+    pub store: TriangleStorage,
 }
 
 impl Default for HugSettings {
@@ -219,6 +223,7 @@ impl Settings for HugSettings {
         key!("prune", prune: Prune, (), PRUNE_HELP),
         key!("shift", shift: bool, (), SHIFT_HELP),
         key!("simd", simd: bool, (), SIMD_HELP),
+        key!("store", store: TriangleStorage, (), STORAGE_HELP),
     ];
     const PRESETS: &'static [Preset] = &[EG95, SCG97];
 }
@@ -396,7 +401,7 @@ impl Accel for Hug {
         let prune = settings.prune;
         let recipe = settings.recipe();
         let n = prims.len();
-        let (store, boxes) = store_with_boxes(prims)?;
+        let (store, boxes) = store_with_boxes(prims, settings.store)?;
         let (plans, report) = build::plan(&store, &boxes, &recipe);
         drop(boxes);
         let grids = GridHierarchy::build(prims, store, &plans, prune, None, settings.simd)?;
