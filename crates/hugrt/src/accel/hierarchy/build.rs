@@ -14,6 +14,11 @@ use crate::accel::{Frame, Primitives, SpecError};
 use crate::geometry::{Aabb, Vec3};
 use rayon::prelude::*;
 
+/// Pairs binned and sorted at once, at most (about): 2^26, 512 MB of pairs and as much for the
+/// sort's second buffer. Past that, the cells are taken in slices
+/// ([`GridHierarchy::build_in_slices`]).
+const SLICE_PAIRS: u64 = 1 << 26;
+
 /// How the items of a grid become `(cell, reference)` pairs.
 pub(super) struct Binner<'a, P> {
     pub(super) prims: &'a P,
@@ -25,29 +30,41 @@ pub(super) struct Binner<'a, P> {
 }
 
 impl<P: Primitives> Binner<'_, P> {
-    /// Appends the pairs of items `range` of grid `h`, cells numbered from `h.first_cell`.
+    /// Appends the pairs of items `range` of grid `h`, cells numbered from `h.first_cell`,
+    /// whose cell lies in `keep`.
     pub(super) fn bin(
         &self,
         h: &GridHeader,
         it: &Items<P>,
         range: std::ops::Range<usize>,
+        keep: &std::ops::Range<u64>,
         out: &mut Vec<u64>,
     ) {
+        let index = |c: [u32; 3]| {
+            h.first_cell as u64
+                + (c[2] as u64 * h.res[1] as u64 + c[1] as u64) * h.res[0] as u64
+                + c[0] as u64
+        };
         for (r, b) in range.filter_map(|k| it.get(k)) {
-            let test = r & GRID_TAG == 0 && h.frame == NO_FRAME && {
-                let (lo, hi) = h.cell_range(&b);
-                (0..3).map(|a| (hi[a] - lo[a] + 1) as u64).product::<u64>() >= self.prune_span
-            };
+            let (lo, hi) = h.cell_range(&b);
+            if index(hi) < keep.start || index(lo) >= keep.end {
+                continue;
+            }
+            let test = r & GRID_TAG == 0
+                && h.frame == NO_FRAME
+                && (0..3).map(|a| (hi[a] - lo[a] + 1) as u64).product::<u64>() >= self.prune_span;
             // A cell is kept when the object meets it widened by the margin, which is what
             // the exactness argument asks of the references (module documentation).
             GridHierarchy::for_each_cell(h, &b, |cell, i| {
-                if !test
-                    || self.prims.overlaps_box(
-                        self.store.id(r) as usize,
-                        &h.cell_box(cell).expand(self.margin),
-                    )
+                let global = h.first_cell as u64 + i as u64;
+                if keep.contains(&global)
+                    && (!test
+                        || self.prims.overlaps_box(
+                            self.store.id(r) as usize,
+                            &h.cell_box(cell).expand(self.margin),
+                        ))
                 {
-                    out.push(((h.first_cell as usize + i) as u64) << 32 | r as u64);
+                    out.push(global << 32 | r as u64);
                 }
             });
         }
@@ -114,6 +131,25 @@ impl GridHierarchy {
         prune: Prune,
         subdivision: Option<Subdivision>,
         simd: bool,
+    ) -> Result<GridHierarchy, SpecError> {
+        Self::build_in_slices(prims, store, plans, prune, subdivision, simd, SLICE_PAIRS)
+    }
+
+    /// [`GridHierarchy::build`], binning and sorting at most about `slice_pairs` pairs at
+    /// once where no cell is subdivided: beyond that the cells are taken in slices, the
+    /// items binned again for each (keeping only the pairs of the slice's cells) and each
+    /// slice's pairs sorted alone, into references and cell starts made at their final
+    /// size. The grids are the same, reference for reference (a test checks); the pairs,
+    /// 16 bytes a reference while they are sorted where a reference takes 4, never exist all
+    /// at once.
+    pub(crate) fn build_in_slices<P: Primitives>(
+        prims: &P,
+        store: PrimStore,
+        plans: &[GridPlan],
+        prune: Prune,
+        subdivision: Option<Subdivision>,
+        simd: bool,
+        slice_pairs: u64,
     ) -> Result<GridHierarchy, SpecError> {
         let scene = (0..store.len() as u32)
             .into_par_iter()
@@ -204,11 +240,71 @@ impl GridHierarchy {
                 (0..k).map(move |c| (g, c * n / k..(c + 1) * n / k))
             })
             .collect();
+        let simd = simd && simd::available() && store.simd_fits();
+        // A sample of every grid's box references (an upper bound where pruned) says whether
+        // the pairs fit at once.
+        let estimate: u64 = if subdivision.is_some() {
+            0
+        } else {
+            grids
+                .iter()
+                .zip(&items)
+                .map(|(h, it)| {
+                    let step = (it.len() / 1024).max(1);
+                    Self::box_reference_count(h, it, step) * step as u64
+                })
+                .sum()
+        };
+        let slices = estimate.div_ceil(slice_pairs.max(1)).max(1);
+        if slices > 1 {
+            let bound: u64 = grids
+                .iter()
+                .zip(&items)
+                .map(|(h, it)| Self::box_reference_count(h, it, 1))
+                .sum();
+            if bound >= u32::MAX as u64 {
+                return Err(SpecError::Build(format!(
+                    "{bound} references: more than one hierarchy can address"
+                )));
+            }
+            let mut refs: Vec<u32> = Vec::with_capacity(bound as usize);
+            let mut cells = CellIndex::empty(total_cells as usize);
+            for k in 0..slices {
+                let keep = k * total_cells / slices..(k + 1) * total_cells / slices;
+                let pairs: Vec<Vec<u64>> = tasks
+                    .par_iter()
+                    .map(|(g, range)| {
+                        let mut out = Vec::new();
+                        binner.bin(&grids[*g], &items[*g], range.clone(), &keep, &mut out);
+                        out
+                    })
+                    .collect();
+                let pairs = radix_sort_high32_parts(pairs);
+                cells.extend_sorted(&pairs, refs.len());
+                refs.par_extend(pairs.par_iter().map(|&p| p as u32));
+            }
+            refs.shrink_to_fit();
+            return Ok(GridHierarchy {
+                cells: cells.finish(refs.len()),
+                refs,
+                store,
+                grids,
+                frames,
+                simd,
+                uncut: 0,
+            });
+        }
         let pairs: Vec<Vec<u64>> = tasks
             .par_iter()
             .map(|(g, range)| {
                 let mut out = Vec::new();
-                binner.bin(&grids[*g], &items[*g], range.clone(), &mut out);
+                binner.bin(
+                    &grids[*g],
+                    &items[*g],
+                    range.clone(),
+                    &(0..u64::MAX),
+                    &mut out,
+                );
                 out
             })
             .collect();
@@ -237,7 +333,6 @@ impl GridHierarchy {
         let cells = CellIndex::from_sorted(&pairs, total_cells as usize);
         let refs: Vec<u32> = pairs.par_iter().map(|&p| p as u32).collect();
         drop(pairs);
-        let simd = simd && simd::available() && store.simd_fits();
         Ok(GridHierarchy {
             store,
             grids,

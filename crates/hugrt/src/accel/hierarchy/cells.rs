@@ -19,30 +19,50 @@ pub(super) struct CellIndex {
 impl CellIndex {
     /// From `(cell, reference)` pairs sorted by cell (cells in the upper 32 bits).
     pub(super) fn from_sorted(pairs: &[u64], cells: usize) -> CellIndex {
-        let mut occupied = vec![0u64; cells.div_ceil(64)];
-        let mut starts = Vec::new();
+        let mut index = CellIndex::empty(cells);
+        index.extend_sorted(pairs, 0);
+        index.finish(pairs.len())
+    }
+
+    /// No cell occupied yet, of `cells`: [`CellIndex::extend_sorted`] adds them.
+    pub(super) fn empty(cells: usize) -> CellIndex {
+        CellIndex {
+            occupied: vec![0u64; cells.div_ceil(64)],
+            rank: Vec::new(),
+            starts: Vec::new(),
+            cells,
+        }
+    }
+
+    /// Adds the cells of `pairs`, sorted by cell and all past the cells added before, whose
+    /// references start at `first` among all references.
+    pub(super) fn extend_sorted(&mut self, pairs: &[u64], first: usize) {
         let mut last = u64::MAX;
         for (k, &p) in pairs.iter().enumerate() {
             let c = p >> 32;
             if c != last {
-                starts.push(k as u32);
-                occupied[c as usize / 64] |= 1 << (c % 64);
+                self.starts.push((first + k) as u32);
+                self.occupied[c as usize / 64] |= 1 << (c % 64);
                 last = c;
             }
         }
-        starts.push(pairs.len() as u32);
-        let mut rank = Vec::with_capacity(occupied.len());
+    }
+
+    /// The index, once every cell is added; `references` is their total.
+    pub(super) fn finish(mut self, references: usize) -> CellIndex {
+        self.starts.push(references as u32);
+        self.starts.shrink_to_fit();
         let mut before = 0u32;
-        for w in &occupied {
-            rank.push(before);
-            before += w.count_ones();
-        }
-        CellIndex {
-            occupied,
-            rank,
-            starts,
-            cells,
-        }
+        self.rank = self
+            .occupied
+            .iter()
+            .map(|w| {
+                let r = before;
+                before += w.count_ones();
+                r
+            })
+            .collect();
+        self
     }
 
     /// The references of cell `i`, or `None` when it has none.

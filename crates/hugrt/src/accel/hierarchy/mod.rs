@@ -101,6 +101,13 @@ impl GridHierarchy {
         self.uncut
     }
 
+    /// The references, the occupied cells' bits and their starts: what two builds of the
+    /// same grids must agree on.
+    #[cfg(test)]
+    pub(crate) fn layout(&self) -> (&[u32], &[u64], &[u32]) {
+        (&self.refs, &self.cells.occupied, &self.cells.starts)
+    }
+
     pub fn grid_count(&self) -> usize {
         self.grids.len()
     }

@@ -111,7 +111,7 @@ impl GridHierarchy {
                         };
                         Self::fit_budget(&mut h, &it);
                         let mut out = Vec::new();
-                        binner.bin(&h, &it, 0..it.len(), &mut out);
+                        binner.bin(&h, &it, 0..it.len(), &(0..u64::MAX), &mut out);
                         out.sort_by_key(|&p| p >> 32);
                         (h, out)
                     })

@@ -463,3 +463,45 @@ impl Accel for Hug {
         s
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A HUG of many grids built with its pairs in slices of 5,000 is the HUG built at once,
+    /// reference for reference, pruned or not, copied or indexed.
+    #[test]
+    fn grids_built_in_slices_are_the_grids_built_at_once() {
+        let scene = crate::scene::procedural::clustered_room(20_000, 3);
+        let mesh = crate::scene::Terrain::with_triangles(20_000, 2).scene();
+        let settings = HugSettings {
+            min_cluster: 1,
+            loose: 1e30,
+            ..HugSettings::default()
+        };
+        for (prims, storage) in [
+            (&scene, TriangleStorage::Copy),
+            (&mesh, TriangleStorage::Index),
+        ] {
+            for prune in [Prune::None, Prune::All] {
+                let build = |slice| {
+                    let (store, boxes) = store_with_boxes(prims, storage).unwrap();
+                    let (plans, _) = build::plan(&store, &boxes, &settings.recipe());
+                    let grids = GridHierarchy::build_in_slices(
+                        prims, store, &plans, prune, None, true, slice,
+                    )
+                    .unwrap();
+                    (plans.len(), grids)
+                };
+                let (plans, whole) = build(u64::MAX);
+                let (_, sliced) = build(5_000);
+                assert!(
+                    plans > 1 || storage == TriangleStorage::Index,
+                    "{plans} grids"
+                );
+                assert!(whole.layout().0.len() > 4 * 5_000, "too few pairs to slice");
+                assert!(whole.layout() == sliced.layout(), "{storage:?}, {prune:?}");
+            }
+        }
+    }
+}
