@@ -468,6 +468,46 @@ impl Accel for Hug {
 mod tests {
     use super::*;
 
+    /// Objects without a finite box are binned nowhere and the others planned as always (the
+    /// planning lists the finite ones only when there are others).
+    #[test]
+    fn objects_without_a_finite_box_leave_the_others_found() {
+        use crate::geometry::Vec3;
+        let mut tris: Vec<[Vec3; 3]> = (0..400)
+            .map(|i| {
+                let c = Vec3::new((i % 20) as f32, (i / 20) as f32, (i % 7) as f32 * 0.1);
+                [c, c + Vec3::X * 0.8, c + Vec3::Y * 0.8]
+            })
+            .collect();
+        for k in [0, 57, 399] {
+            tris[k][1].y = if k == 57 { f32::INFINITY } else { f32::NAN };
+        }
+        let mut scene = crate::scene::Scene::from_triangles(tris);
+        // Spheres come after every triangle in store order, the unbounded ones included: the
+        // planning must map the finite objects past them to their own entries.
+        scene.shapes = (0..60)
+            .map(|i| {
+                crate::geometry::Shape::Sphere(crate::geometry::Sphere {
+                    center: Vec3::new((i % 10) as f32 * 2.0, (i / 10) as f32 * 3.0, 2.0),
+                    radius: 0.7,
+                })
+            })
+            .collect();
+        let mut b = scene.bounds();
+        b = crate::geometry::Aabb::new(b.min.min(Vec3::ZERO), b.max.max(Vec3::splat(20.0)));
+        let rays = crate::batch::incoherent_rays(&b, 2_000, 5);
+        crate::fuzzing::assert_all_agree(
+            &scene,
+            &[
+                "hug",
+                "hug:min_cluster=1,loose=1e30,filter=levels",
+                "grid",
+                "bvh",
+            ],
+            &rays,
+        );
+    }
+
     /// A HUG of many grids built with its pairs in slices of 5,000 is the HUG built at once,
     /// reference for reference, pruned or not, copied or indexed.
     #[test]
