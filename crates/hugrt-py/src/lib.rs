@@ -8,7 +8,6 @@ mod render;
 
 use arrays::{Rays, ints_n3, reals_n3};
 use hugrt::accel::{AnyAccel, Hit, NoCounters};
-use hugrt::geometry::Vec3;
 use numpy::{IntoPyArray, PyArray1, PyArray2};
 use pyo3::exceptions::{PyOSError, PyValueError};
 use pyo3::prelude::*;

@@ -40,7 +40,7 @@ pub enum TriangleStorage {
     /// are not triangles of an indexed mesh ([`Primitives::mesh_triangle`]) make the store
     /// fall back to copies.
     Index,
-    /// [`TriangleStorage::Index`] from [`INDEX_FROM`] primitives, [`TriangleStorage::Copy`]
+    /// [`TriangleStorage::Index`] from 2^24 primitives, [`TriangleStorage::Copy`]
     /// below.
     Auto,
 }
