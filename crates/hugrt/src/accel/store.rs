@@ -45,11 +45,12 @@ pub enum TriangleStorage {
     Auto,
 }
 
-/// Where `store=auto` stops copying triangles: 2^24 primitives. Measured on the bunny and a
-/// 1M-triangle terrain (`docs/measurements.md`), the indexed store costs the HUG 0–25% of its
-/// incoherent throughput (two dependent reads a test, vertices farther apart than a cell's
-/// triangles) and saves 24 bytes a triangle; below 2^24 triangles that is at most 400 MB,
-/// above it memory is what limits the scene a machine can hold.
+/// Where `store=auto` stops copying triangles: 2^24 primitives. Measured on the bunny and on
+/// terrains of 1M and 16M triangles (`docs/measurements.md`), the indexed store costs up to a
+/// third of the incoherent throughput (two dependent reads a test, vertices farther apart
+/// than a cell's triangles; the grid's crowded cells pay the most, the HUG's least) and saves
+/// 24 bytes a triangle; below 2^24 triangles that is at most 400 MB, above it memory is what
+/// limits the scene a machine can hold.
 pub const INDEX_FROM: usize = 1 << 24;
 
 crate::accel::settings::choice_value!(TriangleStorage {
