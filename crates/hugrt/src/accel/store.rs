@@ -254,10 +254,13 @@ impl PrimStore {
     }
 
     /// Frees the triangles, for a structure that keeps its own copy: triangle entries can then
-    /// no longer be intersected or bounded through the store (their indices panic).
+    /// no longer be intersected or bounded through the store (their indices panic). An
+    /// indexed store lets go of the scene's vertices too, which the structure then no longer
+    /// keeps alive.
     pub(crate) fn release_triangles(&mut self) {
         self.tris = Vec::new();
         self.tri_indices = Vec::new();
+        self.vertices = None;
     }
 
     /// The primitive's own index (what hits report) of store entry `s`.

@@ -461,7 +461,7 @@ impl<C: Counters, Q: Queries> Tracer<'_, C, Q> {
         } else {
             self.counts.secondary_hits += 1;
         }
-        let shape = &self.scene.shape(hit.prim as usize);
+        let shape = self.scene.shape(hit.prim as usize);
         let m = *self.scene.material(hit.prim);
         let sp = shape.surface(&PreparedRay::new(ray), hit.t, &self.scene.patch_normals);
         let d = ray.dir.normalize();

@@ -138,7 +138,7 @@ impl Primitives for Occluders<'_> {
     }
 
     fn intersect(&self, i: usize, r: &PreparedRay, tmin: f32, tmax: f32) -> Option<f32> {
-        let shape = &self.scene.shape(i);
+        let shape = self.scene.shape(i);
         if self.radius <= 0.0 {
             return shape.intersect(r, tmin, tmax);
         }
@@ -166,7 +166,7 @@ impl Primitives for Occluders<'_> {
                 if dn == 0.0 || !(t >= tmin && t <= tmax) {
                     return None;
                 }
-                self.falloff(distance_to_edges(v, o + d * t), t)
+                self.falloff(distance_to_edges(&v, o + d * t), t)
             }
             Shape::Sphere(s) => {
                 let t = ((s.center - o).dot(d) / d.length_squared()).clamp(tmin, tmax);

@@ -73,6 +73,9 @@ pub const KINDS: &[(&str, &str, u32)] = &[
 pub fn generate(kind: &str, size: u32, seed: u64) -> Option<Scene> {
     let (_, _, default) = KINDS.iter().find(|(k, _, _)| *k == kind)?;
     let size = if size == 0 { *default } else { size };
+    if kind == "terrain" {
+        return Some(super::Terrain::with_triangles(size as u64 * 1000, seed).scene());
+    }
     let mut b = Builder::new(seed);
     match kind {
         "kitchen" => {
@@ -84,7 +87,6 @@ pub fn generate(kind: &str, size: u32, seed: u64) -> Option<Scene> {
         "garden" => garden(&mut b, size),
         "sphereflake" => sphereflake(&mut b, size),
         "stadium" => stadium(&mut b, size),
-        "terrain" => return Some(super::Terrain::with_triangles(size as u64 * 1000, seed).scene()),
         _ => return None,
     }
     Some(b.scene)

@@ -2,18 +2,19 @@
 //!
 //! A scan or a CAD export shares every vertex among about six triangles, so a mesh of `T`
 //! triangles has about `T / 2` vertices: 12 bytes of indices and about 6 of vertices per
-//! triangle, where a [`Shape`](crate::geometry::Shape) per triangle takes 44. The structures
-//! never see the difference: [`Primitives`](crate::accel::Primitives) hands them a mesh
-//! triangle as its three vertices, and their own copies ([`crate::accel::PrimStore`], the bvh's
-//! leaf blocks) are what rays are tested against.
+//! triangle, where a [`Shape`](crate::geometry::Shape) per triangle takes 44.
+//! [`Primitives`](crate::accel::Primitives) hands the structures a mesh triangle as its three
+//! vertices, which they copy (the bvh's leaf blocks, [`crate::accel::PrimStore`] by default),
+//! or as its indices into the shared vertices, which they read through (`store=index`).
 
 use crate::geometry::{Vec3, tiny_coordinates_zeroed as zeroed};
 use rustc_hash::FxHashMap;
 use std::sync::Arc;
 
 /// A triangle mesh: shared vertices and triangles as index triples into them. Every index is
-/// in range and every coordinate finite ([`Mesh::new`] checks), so that a triangle can be
-/// looked up without a check that could fail.
+/// in range, so that a triangle can be looked up without a check that could fail; every
+/// coordinate is finite in a mesh from [`Mesh::new`] (which checks), while [`Mesh::welded`]
+/// keeps a soup's as they are.
 ///
 /// The vertices are shared ([`Arc`]) with the structures that test rays against the mesh's
 /// triangles by index instead of copying them (`store=index`): cloning a mesh or building
@@ -83,27 +84,10 @@ impl Mesh {
     /// With more than [`MAX_PRIMITIVES`] triangles.
     pub fn welded(soup: &[[Vec3; 3]]) -> Mesh {
         assert!(soup.len() <= MAX_PRIMITIVES, "at most 2^32-2 triangles");
-        let mut index: FxHashMap<[u32; 3], u32> = FxHashMap::default();
-        index.reserve(soup.len() / 2 + 3);
-        let mut vertices = Vec::with_capacity(soup.len() / 2 + 3);
-        let triangles = soup
-            .iter()
-            .map(|tri| {
-                tri.map(|v| {
-                    let v = zeroed(v);
-                    *index
-                        .entry(v.to_array().map(f32::to_bits))
-                        .or_insert_with(|| {
-                            vertices.push(v);
-                            vertices.len() as u32 - 1
-                        })
-                })
-            })
-            .collect();
-        vertices.shrink_to_fit();
+        let (vertices, number) = distinct(soup.iter().flatten().map(|&v| zeroed(v)));
         Mesh {
             vertices: Arc::new(vertices),
-            triangles,
+            triangles: number.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect(),
         }
     }
 
@@ -115,25 +99,10 @@ impl Mesh {
         if self.vertices.len() <= self.triangles.len() {
             return self;
         }
-        let mut index: FxHashMap<[u32; 3], u32> = FxHashMap::default();
-        let mut vertices = Vec::new();
-        let remap: Vec<u32> = self
-            .vertices
-            .iter()
-            .map(|v| {
-                *index
-                    .entry(v.to_array().map(f32::to_bits))
-                    .or_insert_with(|| {
-                        vertices.push(*v);
-                        vertices.len() as u32 - 1
-                    })
-            })
-            .collect();
-        drop(index);
+        let (vertices, number) = distinct(self.vertices.iter().copied());
         for t in &mut self.triangles {
-            *t = t.map(|k| remap[k as usize]);
+            *t = t.map(|k| number[k as usize]);
         }
-        vertices.shrink_to_fit();
         self.vertices = Arc::new(vertices);
         self
     }
@@ -169,6 +138,25 @@ impl Mesh {
     pub fn memory_bytes(&self) -> usize {
         self.vertices.capacity() * 12 + self.triangles.capacity() * 12
     }
+}
+
+/// The distinct points of `points` (equal bit for bit), in order of first appearance, and the
+/// number each point of `points` has among them.
+fn distinct(points: impl Iterator<Item = Vec3>) -> (Vec<Vec3>, Vec<u32>) {
+    let mut index: FxHashMap<[u32; 3], u32> = FxHashMap::default();
+    let mut vertices = Vec::new();
+    let number = points
+        .map(|v| {
+            *index
+                .entry(v.to_array().map(f32::to_bits))
+                .or_insert_with(|| {
+                    vertices.push(v);
+                    vertices.len() as u32 - 1
+                })
+        })
+        .collect();
+    vertices.shrink_to_fit();
+    (vertices, number)
 }
 
 #[cfg(test)]

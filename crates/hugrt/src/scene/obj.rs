@@ -54,9 +54,11 @@ pub fn parse(path: &str, data: &[u8]) -> Result<Scene, SceneError> {
         }
         let base = vertices.len();
         for (i, c) in m.mesh.positions.chunks_exact(3).enumerate() {
-            match c.iter().map(|&x| finite(x)).collect::<Result<Vec<_>, _>>() {
-                Ok(v) => vertices.push(Vec3::new(v[0], v[1], v[2])),
-                Err(reason) => return Err(vertex_error(path, data, base + i, &reason)),
+            match [c[0], c[1], c[2]].map(finite) {
+                [Ok(x), Ok(y), Ok(z)] => vertices.push(Vec3::new(x, y, z)),
+                [Err(reason), ..] | [_, Err(reason), _] | [.., Err(reason)] => {
+                    return Err(vertex_error(path, data, base + i, &reason));
+                }
             }
         }
         let count = vertices.len() - base;

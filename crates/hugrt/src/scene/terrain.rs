@@ -143,44 +143,21 @@ impl Terrain {
     /// Writes the terrain as binary little-endian PLY, as [`write_ply`](super::write::write_ply)
     /// would write [`Terrain::mesh`], a row at a time: memory stays a few rows whatever the size.
     pub fn write_ply(&self, out: &mut impl Write) -> io::Result<()> {
-        write!(
-            out,
-            "ply\nformat binary_little_endian 1.0\ncomment hugrt terrain, {} squares a side, seed {}\n\
-             element vertex {}\nproperty float x\nproperty float y\nproperty float z\n\
-             element face {}\nproperty list uchar int vertex_indices\nend_header\n",
-            self.side,
-            self.seed,
-            self.vertex_count(),
-            self.triangle_count()
-        )?;
-        let row = self.side + 1;
-        let mut buf = Vec::new();
-        for j in 0..row {
-            buf.clear();
-            let points: Vec<Vec3> = (0..row)
+        let (row, side) = (self.side + 1, self.side);
+        // Each row's heights computed in parallel as the writer asks for it.
+        let points = (0..row).flat_map(|j| {
+            (0..row)
                 .into_par_iter()
                 .map(|i| self.vertex(i, j))
-                .collect();
-            for p in points {
-                for x in p.to_array() {
-                    buf.extend_from_slice(&x.to_le_bytes());
-                }
-            }
-            out.write_all(&buf)?;
-        }
-        for j in 0..self.side {
-            buf.clear();
-            for i in 0..self.side {
-                for t in self.square(i, j) {
-                    buf.push(3);
-                    for k in t {
-                        buf.extend_from_slice(&(k as i32).to_le_bytes());
-                    }
-                }
-            }
-            out.write_all(&buf)?;
-        }
-        Ok(())
+                .collect::<Vec<_>>()
+        });
+        let faces = (0..side).flat_map(|j| (0..side).flat_map(move |i| self.square(i, j)));
+        super::write::write_ply_mesh(
+            out,
+            &format!("hugrt terrain, {side} squares a side, seed {}", self.seed),
+            (self.vertex_count(), points),
+            (self.triangle_count(), faces),
+        )
     }
 }
 

@@ -188,20 +188,11 @@ pub fn write_ply(scene: &Scene, out: &mut impl Write) -> io::Result<()> {
     }
     let mesh = &scene.mesh;
     let soup_vertices = 3 * tris.len();
-    let too_many =
-        |what: &str| io::Error::other(format!("more than 2^31-1 {what} for PLY's int indices"));
-    if soup_vertices + mesh.vertices().len() > i32::MAX as usize {
-        return Err(too_many("vertices"));
-    }
-    write!(
-        out,
-        "ply\nformat binary_little_endian 1.0\ncomment written by hugrt\n\
-         element vertex {}\nproperty float x\nproperty float y\nproperty float z\n\
-         element face {}\nproperty list uchar int vertex_indices\nend_header\n",
-        soup_vertices + mesh.vertices().len(),
-        tris.len() + mesh.len()
-    )?;
-    let points = tris.iter().flatten().chain(mesh.vertices());
+    let points = tris
+        .iter()
+        .flatten()
+        .copied()
+        .chain(mesh.vertices().iter().copied());
     let faces = (0..tris.len() as u32)
         .map(|i| [3 * i, 3 * i + 1, 3 * i + 2])
         .chain(
@@ -209,26 +200,53 @@ pub fn write_ply(scene: &Scene, out: &mut impl Write) -> io::Result<()> {
                 .iter()
                 .map(|t| t.map(|k| k + soup_vertices as u32)),
         );
-    // In chunks of 1 MB or so: a mesh of 10^8 triangles is written without a copy of it.
+    write_ply_mesh(
+        out,
+        "written by hugrt",
+        (soup_vertices + mesh.vertices().len(), points),
+        (tris.len() + mesh.len(), faces),
+    )
+}
+
+/// Writes a mesh as binary little-endian PLY from its `(count, points)` and `(count, faces)`,
+/// in chunks of about 1 MB: a mesh of 10^9 triangles, made as it is written, is never held.
+pub(crate) fn write_ply_mesh(
+    out: &mut impl Write,
+    comment: &str,
+    (vertex_count, points): (usize, impl Iterator<Item = Vec3>),
+    (face_count, faces): (usize, impl Iterator<Item = [u32; 3]>),
+) -> io::Result<()> {
+    if vertex_count > i32::MAX as usize {
+        return Err(io::Error::other(
+            "more than 2^31-1 vertices for PLY's int indices",
+        ));
+    }
+    write!(
+        out,
+        "ply\nformat binary_little_endian 1.0\ncomment {comment}\n\
+         element vertex {vertex_count}\nproperty float x\nproperty float y\nproperty float z\n\
+         element face {face_count}\nproperty list uchar int vertex_indices\nend_header\n"
+    )?;
     let mut buf = Vec::with_capacity(1 << 20);
+    let flush = |buf: &mut Vec<u8>, out: &mut dyn Write| -> io::Result<()> {
+        if buf.len() >= 1 << 20 {
+            out.write_all(buf)?;
+            buf.clear();
+        }
+        Ok(())
+    };
     for p in points {
         for x in p.to_array() {
             buf.extend_from_slice(&x.to_le_bytes());
         }
-        if buf.len() >= 1 << 20 {
-            out.write_all(&buf)?;
-            buf.clear();
-        }
+        flush(&mut buf, out)?;
     }
     for f in faces {
         buf.push(3);
         for k in f {
             buf.extend_from_slice(&k.to_le_bytes());
         }
-        if buf.len() >= 1 << 20 {
-            out.write_all(&buf)?;
-            buf.clear();
-        }
+        flush(&mut buf, out)?;
     }
     out.write_all(&buf)
 }

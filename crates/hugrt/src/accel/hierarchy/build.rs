@@ -241,20 +241,35 @@ impl GridHierarchy {
             })
             .collect();
         let simd = simd && simd::available() && store.simd_fits();
-        // A sample of every grid's box references (an upper bound where pruned) says whether
-        // the pairs fit at once.
-        let estimate: u64 = if subdivision.is_some() {
-            0
-        } else {
-            grids
-                .iter()
-                .zip(&items)
-                .map(|(h, it)| {
-                    let step = (it.len() / 1024).max(1);
-                    Self::box_reference_count(h, it, step) * step as u64
+        // The pairs of the cells in `keep`, a list per task. Pass 2 sorts them stably by cell,
+        // the lists as they are, in task order: each cell keeps its objects in store order,
+        // then its grids.
+        let binned = |keep: std::ops::Range<u64>| -> Vec<Vec<u64>> {
+            tasks
+                .par_iter()
+                .map(|(g, range)| {
+                    let mut out = Vec::new();
+                    binner.bin(&grids[*g], &items[*g], range.clone(), &keep, &mut out);
+                    out
                 })
-                .sum()
+                .collect()
         };
+        // A sample of every grid's box references (an upper bound where pruned) says whether
+        // the pairs fit at once; builds of fewer items than that can make are not sampled.
+        let item_count: u64 = items.iter().map(|it| it.len() as u64).sum();
+        let estimate: u64 =
+            if subdivision.is_some() || item_count * MAX_REFS_PER_ITEM <= slice_pairs {
+                0
+            } else {
+                grids
+                    .iter()
+                    .zip(&items)
+                    .map(|(h, it)| {
+                        let step = (it.len() / 1024).max(1);
+                        Self::box_reference_count(h, it, step) * step as u64
+                    })
+                    .sum()
+            };
         let slices = estimate.div_ceil(slice_pairs.max(1)).max(1);
         if slices > 1 {
             let bound: u64 = grids
@@ -271,15 +286,7 @@ impl GridHierarchy {
             let mut cells = CellIndex::empty(total_cells as usize);
             for k in 0..slices {
                 let keep = k * total_cells / slices..(k + 1) * total_cells / slices;
-                let pairs: Vec<Vec<u64>> = tasks
-                    .par_iter()
-                    .map(|(g, range)| {
-                        let mut out = Vec::new();
-                        binner.bin(&grids[*g], &items[*g], range.clone(), &keep, &mut out);
-                        out
-                    })
-                    .collect();
-                let pairs = radix_sort_high32_parts(pairs);
+                let pairs = radix_sort_high32_parts(binned(keep));
                 cells.extend_sorted(&pairs, refs.len());
                 refs.par_extend(pairs.par_iter().map(|&p| p as u32));
             }
@@ -294,20 +301,7 @@ impl GridHierarchy {
                 uncut: 0,
             });
         }
-        let pairs: Vec<Vec<u64>> = tasks
-            .par_iter()
-            .map(|(g, range)| {
-                let mut out = Vec::new();
-                binner.bin(
-                    &grids[*g],
-                    &items[*g],
-                    range.clone(),
-                    &(0..u64::MAX),
-                    &mut out,
-                );
-                out
-            })
-            .collect();
+        let pairs = binned(0..u64::MAX);
         drop(items);
         let count: usize = pairs.iter().map(Vec::len).sum();
         if count >= u32::MAX as usize {
@@ -315,9 +309,7 @@ impl GridHierarchy {
                 "{count} references: more than one hierarchy can address"
             )));
         }
-        // Pass 2: a stable sort by cell keeps each cell's objects in store order, then its
-        // grids; the cell index and the references come straight from the sorted pairs. The
-        // tasks' lists go to the sort as they are, in task order.
+        // Pass 2: the cell index and the references come straight from the sorted pairs.
         let mut pairs = radix_sort_high32_parts(pairs);
         let mut uncut = 0;
         if let Some(sub) = subdivision {

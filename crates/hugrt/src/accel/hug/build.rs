@@ -157,14 +157,15 @@ pub fn plan(store: &PrimStore, boxes: &[Aabb], s: &Recipe) -> (Vec<GridPlan>, Re
     };
     // Store entry of the `k`-th object with a finite box.
     let entry = |k: u32| if all_finite { k } else { binned[k as usize] };
-    let lengths: Vec<f32> = if all_finite {
-        boxes.par_iter().map(Aabb::diagonal).collect()
+    let finite_count = if all_finite {
+        boxes.len()
     } else {
-        binned
-            .par_iter()
-            .map(|&i| boxes[i as usize].diagonal())
-            .collect()
+        binned.len()
     };
+    let lengths: Vec<f32> = (0..finite_count as u32)
+        .into_par_iter()
+        .map(|k| boxes[entry(k) as usize].diagonal())
+        .collect();
     let mut levels = s.filter.apply(&lengths);
     drop(lengths);
     let mut report = Report {
