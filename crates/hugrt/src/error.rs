@@ -2,7 +2,7 @@
 //! scene written to a file): each step's own error, with the file or spec it concerns.
 
 use crate::accel::SpecError;
-use crate::scene::{SceneError, ViewError};
+use crate::scene::{InstanceError, SceneError, ViewError};
 use std::path::PathBuf;
 
 #[derive(Debug, thiserror::Error)]
@@ -15,6 +15,8 @@ pub enum Error {
     Spec { spec: String, error: SpecError },
     #[error(transparent)]
     View(#[from] ViewError),
+    #[error(transparent)]
+    Instances(#[from] InstanceError),
     /// A scene with nothing to hit, where something was to be rendered.
     #[error("{0}: no primitives")]
     Empty(String),

@@ -8,6 +8,7 @@
 //! * [`stats`]: scene statistics (SCG97 Fig. 4).
 //! * [`reproduce`]: the papers' experiments regenerated, published beside measured.
 //! * [`batch`]: batch ray queries in the `hugrt trace` file format.
+//! * [`world`]: instanced scenes built for ray shooting, each model's structure once.
 //! * [`Error`]: what the whole jobs (a rendering, statistics, a written scene) fail with.
 //! * [`mod@bench`]: structures measured on the same work: times, Havran's septet and triplet,
 //!   counters, and the same-answers check.
@@ -23,5 +24,6 @@ pub mod render;
 pub mod reproduce;
 pub mod scene;
 pub mod stats;
+pub mod world;
 
 pub use error::Error;

@@ -323,6 +323,35 @@ pub trait Accel: Sized + Send + Sync {
         sink.hit()
     }
 
+    /// [`Accel::closest_hit`] with the ray the structure walked (a far ray moved to the
+    /// primitives, [`Reach`]) and the hit in that ray's terms: what a primitive's test saw,
+    /// for following an instance's hit down ([`crate::world::World::resolve`]).
+    fn closest_hit_walked<P: Primitives, C: Counters>(
+        &self,
+        prims: &P,
+        ray: &Ray,
+        counters: &mut C,
+    ) -> Option<Walked> {
+        if !ray.is_traceable() {
+            return None;
+        }
+        let ray = ray.without_subnormal_direction();
+        let (walked, moved) = if self.reach().is_near(&ray) {
+            (ray, None)
+        } else {
+            let m = self.reach().moved(&ray)?;
+            (m.ray, Some(m))
+        };
+        let mut sink = Closest::new(walked.tmax);
+        self.query(prims, &walked, &mut sink, counters);
+        let hit = sink.hit()?;
+        Some(Walked {
+            ray: walked,
+            hit,
+            t: moved.map_or(hit.t, |m| m.hit(hit).t),
+        })
+    }
+
     /// Some hit in the ray's `[tmin, tmax]`, if there is any; none for a ray that is not
     /// traceable.
     #[inline]
@@ -395,6 +424,17 @@ pub trait Accel: Sized + Send + Sync {
     fn memory_bytes(&self) -> usize;
 
     fn stats(&self) -> StructureStats;
+}
+
+/// A closest hit with the ray that found it ([`Accel::closest_hit_walked`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Walked {
+    /// The ray the structure walked: the caller's, or a far ray moved to the primitives.
+    pub ray: Ray,
+    /// The hit on that ray.
+    pub hit: Hit,
+    /// The hit's `t` on the caller's ray.
+    pub t: f32,
 }
 
 /// [`Accel::closest_hit`] (`Closest::new`, `Closest::hit`) or [`Accel::any_hit`] (the same
@@ -501,6 +541,13 @@ macro_rules! structures {
                 &self, prims: &P, ray: &Ray, counters: &mut C,
             ) -> Option<Hit> {
                 match self { $(AnyAccel::$variant(a) => a.closest_hit(prims, ray, counters),)* }
+            }
+
+            /// The closest hit with the ray that found it ([`Accel::closest_hit_walked`]).
+            pub fn closest_hit_walked<P: Primitives, C: Counters>(
+                &self, prims: &P, ray: &Ray, counters: &mut C,
+            ) -> Option<Walked> {
+                match self { $(AnyAccel::$variant(a) => a.closest_hit_walked(prims, ray, counters),)* }
             }
 
             /// Whether anything is hit in the ray's `[tmin, tmax]`.

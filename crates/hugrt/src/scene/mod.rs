@@ -4,6 +4,7 @@
 mod error;
 pub mod generate;
 mod gltf;
+mod instances;
 mod mesh;
 mod nff;
 mod obj;
@@ -14,6 +15,8 @@ mod terrain;
 pub mod write;
 
 pub use error::SceneError;
+pub use instances::{Instance, InstanceError, InstancedScene, MAX_NESTING, Model};
+pub(crate) use instances::{cofactor, transformed_box};
 pub use mesh::{MAX_PRIMITIVES, Mesh, MeshError};
 pub use terrain::Terrain;
 
@@ -326,14 +329,17 @@ impl Scene {
     }
 
     pub fn material(&self, prim: u32) -> &Material {
+        &self.materials[self.material_index(prim) as usize]
+    }
+
+    /// The index in [`Scene::materials`] of primitive `prim`'s material.
+    pub fn material_index(&self, prim: u32) -> u32 {
         let run = self
             .material_runs
             .partition_point(|&(first, _)| first <= prim);
-        let m = self
-            .material_runs
+        self.material_runs
             .get(run.wrapping_sub(1))
-            .map_or(0, |r| r.1);
-        &self.materials[m as usize]
+            .map_or(0, |r| r.1)
     }
 
     /// Bytes held by the primitives, materials and normals.
