@@ -185,13 +185,14 @@ fn instances_placed_exactly_hit_what_their_flattened_copies_hit() {
         let world = World::build(scene.clone(), "hug").unwrap();
         let rays = dyadic_rays(&world.bounds(), seed, 2000);
         let want = flat_hits(&scene, &rays);
-        let mut hits = 0;
+        let (mut hits, mut placed) = (0, 0);
         for (ray, w) in rays.iter().zip(&want) {
             let got = world.closest_hit(ray, &mut NoCounters);
             match (w, got) {
                 (None, None) => {}
                 (Some(w), Some(g)) => {
                     hits += 1;
+                    placed += usize::from(g.instances.top().is_some());
                     // Triangles' watertight test commutes with the transforms bit for bit;
                     // spheres' and cones' dot products sum the axes in another order.
                     let ulps = if shapes { 4e-7 * w.t.abs() } else { 0.0 };
@@ -204,7 +205,10 @@ fn instances_placed_exactly_hit_what_their_flattened_copies_hit() {
                 _ => panic!("seed {seed}: {ray:?}: flattened {w:?}, instanced {got:?}"),
             }
         }
-        assert!(hits > 100, "seed {seed}: only {hits} hits");
+        assert!(
+            hits > 100 && placed + 2 >= hits,
+            "seed {seed}: {hits} hits, {placed} in instances"
+        );
     }
 }
 
@@ -353,5 +357,51 @@ fn many_instances_over_one_cell_keep_references_bounded() {
                 .map(|h| h.t),
             "{spec}"
         );
+    }
+}
+
+/// The world rendered through its instances is the flattened world's image: the renderer
+/// shades an instance's hit by its model's material and the transformed normals.
+#[test]
+fn an_instanced_world_renders_as_its_flattened_copies() {
+    use hugrt::render::{RenderSettings, render, render_world};
+    for (seed, shapes) in [(31, false), (32, true)] {
+        let mut scene = exact_three_levels(seed, shapes);
+        let b = scene.flattened().unwrap().bounds();
+        let world_scene = &mut scene.models.last_mut().unwrap().scene;
+        world_scene.camera = hugrt::scene::Camera::framing(&b);
+        world_scene.lights[0].position = world_scene.camera.from + Vec3::Y * b.diagonal();
+        // Mirror and glass, so that reflected and refracted rays cross instances too.
+        for m in &mut scene.models {
+            m.scene.materials[0].ks = 0.3;
+            m.scene.materials[0].transmittance = 0.2;
+            m.scene.materials[0].ior = 1.3;
+        }
+        let flat = scene.flattened().unwrap();
+        let settings = RenderSettings {
+            width: 64,
+            height: 64,
+            depth: 3,
+            counters: false,
+        };
+        for spec in ["hug", "bvh"] {
+            let world = World::build(scene.clone(), spec).unwrap();
+            let accel = hugrt::accel::AnyAccel::build(&flat, spec).unwrap();
+            let want = render(&flat, &accel, &settings, &|_| {});
+            let got = render_world(&world, &settings, &|_| {});
+            assert_eq!(want.counts, got.counts, "{spec}, seed {seed}");
+            assert!(
+                want.counts.eye_hits > 100,
+                "{spec}, seed {seed}: {:?}",
+                want.counts
+            );
+            let differ = want
+                .image
+                .pixels()
+                .zip(got.image.pixels())
+                .filter(|(a, b)| a != b)
+                .count();
+            assert_eq!(differ, 0, "{spec}, seed {seed}: {differ} pixels differ");
+        }
     }
 }

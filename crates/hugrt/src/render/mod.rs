@@ -25,8 +25,9 @@ pub use output::{ImageFormat, save_image};
 pub use soft::{DEFAULT_LIGHT_RADIUS, SoftShadows};
 
 use crate::accel::{AnyAccel, Counters, Hit, NoCounters, RayCounters};
-use crate::geometry::{PreparedRay, Ray, Vec3};
-use crate::scene::Scene;
+use crate::geometry::{Aabb, PreparedRay, Ray, SurfacePoint, Vec3};
+use crate::scene::{Material, Scene};
+use crate::world::{InstanceHit, World};
 use rayon::prelude::*;
 use serde::Serialize;
 
@@ -172,6 +173,93 @@ pub fn render_soft(
     )
 }
 
+/// Renders an instanced world ([`World`]): its world model's camera, lights and background,
+/// hard shadows. The same image as [`render`] of the world flattened into copies, but for
+/// rounding (`tests/instances.rs` compares them).
+pub fn render_world(
+    world: &World,
+    settings: &RenderSettings,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Rendered {
+    let live = |_| WorldLive;
+    let rows = 0..settings.height.max(1);
+    if settings.counters {
+        render_with::<RayCounters, _, _>(world, settings, rows, &live, progress).0
+    } else {
+        render_with::<NoCounters, _, _>(world, settings, rows, &live, progress).0
+    }
+}
+
+/// What the renderer shades: a flat scene, or an instanced world.
+trait Stage: Sync {
+    type Hit: Copy;
+    /// The scene whose camera, lights and background are the rendering's.
+    fn scene(&self) -> &Scene;
+    fn bounds(&self) -> Aabb;
+    /// The hit's point, its normals and its material.
+    fn surface(&self, hit: &Self::Hit, ray: &Ray) -> (SurfacePoint, Material);
+}
+
+impl Stage for Scene {
+    type Hit = Hit;
+    fn scene(&self) -> &Scene {
+        self
+    }
+    fn bounds(&self) -> Aabb {
+        Scene::bounds(self)
+    }
+    fn surface(&self, hit: &Hit, ray: &Ray) -> (SurfacePoint, Material) {
+        let shape = self.shape(hit.prim as usize);
+        let sp = shape.surface(&PreparedRay::new(ray), hit.t, &self.patch_normals);
+        (sp, *self.material(hit.prim))
+    }
+}
+
+impl Stage for World {
+    type Hit = InstanceHit;
+    fn scene(&self) -> &Scene {
+        World::scene(self)
+    }
+    fn bounds(&self) -> Aabb {
+        World::bounds(self)
+    }
+    fn surface(&self, hit: &InstanceHit, ray: &Ray) -> (SurfacePoint, Material) {
+        let (sp, m) = World::surface(self, hit, ray);
+        (sp, *m)
+    }
+}
+
+/// An instanced world's queries.
+struct WorldLive;
+
+impl Queries<World> for WorldLive {
+    #[inline]
+    fn closest<C: Counters>(
+        &mut self,
+        world: &World,
+        ray: &Ray,
+        counters: &mut C,
+    ) -> Option<InstanceHit> {
+        world.closest_hit(ray, counters)
+    }
+
+    #[inline]
+    fn light<C: Counters>(
+        &mut self,
+        world: &World,
+        from: Vec3,
+        to_light: Vec3,
+        counters: &mut C,
+    ) -> f32 {
+        let shadow = Ray::new(from, to_light, 0.0, 1.0);
+        if world.any_hit(&shadow, counters) {
+            0.0
+        } else {
+            1.0
+        }
+    }
+}
+
 fn render_impl(
     scene: &Scene,
     accel: &AnyAccel,
@@ -182,9 +270,9 @@ fn render_impl(
 ) -> Rendered {
     let live = |_| Live { accel, soft };
     let (rendered, _) = if settings.counters {
-        render_with::<RayCounters, _>(scene, settings, rows, &live, progress)
+        render_with::<RayCounters, _, _>(scene, settings, rows, &live, progress)
     } else {
-        render_with::<NoCounters, _>(scene, settings, rows, &live, progress)
+        render_with::<NoCounters, _, _>(scene, settings, rows, &live, progress)
     };
     rendered
 }
@@ -222,9 +310,9 @@ pub fn render_recorded(
     };
     let all = 0..settings.height.max(1);
     let (rendered, rows) = if settings.counters {
-        render_with::<RayCounters, _>(scene, settings, all, &record, &|_| {})
+        render_with::<RayCounters, _, _>(scene, settings, all, &record, &|_| {})
     } else {
-        render_with::<NoCounters, _>(scene, settings, all, &record, &|_| {})
+        render_with::<NoCounters, _, _>(scene, settings, all, &record, &|_| {})
     };
     let rows = rows.into_iter().map(|r| r.answers).collect();
     (rendered, Recording { rows })
@@ -252,7 +340,7 @@ pub fn render_replayed(
         ..*settings
     };
     let all = 0..settings.height.max(1);
-    render_with::<NoCounters, _>(scene, &settings, all, &replay, &|_| {}).0
+    render_with::<NoCounters, _, _>(scene, &settings, all, &replay, &|_| {}).0
 }
 
 trait Summable: Counters + Default + Send + Copy {
@@ -276,12 +364,12 @@ impl Summable for RayCounters {
 
 /// Where a rendering's queries go: the structures, the structures with a record kept, or a
 /// record.
-trait Queries: Send {
-    fn closest<C: Counters>(&mut self, scene: &Scene, ray: &Ray, counters: &mut C) -> Option<Hit>;
+trait Queries<S: Stage>: Send {
+    fn closest<C: Counters>(&mut self, stage: &S, ray: &Ray, counters: &mut C) -> Option<S::Hit>;
     /// Light reaching `from` from a light at `from + to_light`, 0 to 1.
     fn light<C: Counters>(
         &mut self,
-        scene: &Scene,
+        stage: &S,
         from: Vec3,
         to_light: Vec3,
         counters: &mut C,
@@ -293,7 +381,7 @@ struct Live<'a> {
     soft: Option<&'a SoftShadows>,
 }
 
-impl Queries for Live<'_> {
+impl Queries<Scene> for Live<'_> {
     #[inline]
     fn closest<C: Counters>(&mut self, scene: &Scene, ray: &Ray, counters: &mut C) -> Option<Hit> {
         self.accel.closest_hit(scene, ray, counters)
@@ -326,7 +414,7 @@ struct Recorder<'a> {
     answers: Answers,
 }
 
-impl Queries for Recorder<'_> {
+impl Queries<Scene> for Recorder<'_> {
     fn closest<C: Counters>(&mut self, scene: &Scene, ray: &Ray, counters: &mut C) -> Option<Hit> {
         let h = self.live.closest(scene, ray, counters);
         self.answers.hits.push(h);
@@ -352,7 +440,7 @@ struct Replay<'a> {
     next_light: usize,
 }
 
-impl Queries for Replay<'_> {
+impl Queries<Scene> for Replay<'_> {
     #[inline]
     fn closest<C: Counters>(&mut self, _: &Scene, _: &Ray, _: &mut C) -> Option<Hit> {
         let h = self.answers.hits[self.next_hit];
@@ -368,8 +456,8 @@ impl Queries for Replay<'_> {
     }
 }
 
-struct Tracer<'a, C, Q> {
-    scene: &'a Scene,
+struct Tracer<'a, S, C, Q> {
+    stage: &'a S,
     queries: Q,
     max_depth: u32,
     offset_scale: f32,
@@ -380,21 +468,21 @@ struct Tracer<'a, C, Q> {
 /// The rendering itself, of the pixel rows `pixel_rows`; `queries(j)` makes the query source
 /// of corner row `j` (counted from the image's top), and the sources come back with the image,
 /// row by row.
-fn render_with<C: Summable, Q: Queries>(
-    scene: &Scene,
+fn render_with<C: Summable, S: Stage, Q: Queries<S>>(
+    stage: &S,
     s: &RenderSettings,
     pixel_rows: std::ops::Range<u32>,
     queries: &(dyn Fn(usize) -> Q + Sync),
     progress: &(dyn Fn(u64) + Sync),
 ) -> (Rendered, Vec<Q>) {
     let (w, h) = (s.width.max(1), s.height.max(1));
-    let cam = &scene.camera;
+    let cam = &stage.scene().camera;
     let dir = (cam.at - cam.from).normalize();
     let right = dir.cross(cam.up).normalize();
     let up = right.cross(dir);
     let half = (cam.fov_deg.to_radians() * 0.5).tan();
     let aspect = w as f32 / h as f32;
-    let b = scene.bounds();
+    let b = stage.bounds();
     let offset_scale = if b.is_empty() {
         1e-4
     } else {
@@ -404,7 +492,7 @@ fn render_with<C: Summable, Q: Queries>(
         .into_par_iter()
         .map(|j| {
             let mut t = Tracer {
-                scene,
+                stage,
                 queries: queries(j as usize),
                 max_depth: s.depth.min(MAX_BOUNCES) + 1,
                 offset_scale,
@@ -451,19 +539,18 @@ fn render_with<C: Summable, Q: Queries>(
     (rendered, rows.into_iter().map(|r| r.3).collect())
 }
 
-impl<C: Counters, Q: Queries> Tracer<'_, C, Q> {
+impl<S: Stage, C: Counters, Q: Queries<S>> Tracer<'_, S, C, Q> {
     fn trace(&mut self, ray: &Ray, depth: u32) -> Vec3 {
-        let Some(hit) = self.queries.closest(self.scene, ray, &mut self.counters) else {
-            return self.scene.background;
+        let scene = self.stage.scene();
+        let Some(hit) = self.queries.closest(self.stage, ray, &mut self.counters) else {
+            return scene.background;
         };
         if depth == 1 {
             self.counts.eye_hits += 1;
         } else {
             self.counts.secondary_hits += 1;
         }
-        let shape = self.scene.shape(hit.prim as usize);
-        let m = *self.scene.material(hit.prim);
-        let sp = shape.surface(&PreparedRay::new(ray), hit.t, &self.scene.patch_normals);
+        let (sp, m) = self.stage.surface(&hit, ray);
         let d = ray.dir.normalize();
         let entering = d.dot(sp.geometric_normal) < 0.0;
         let (ng, ns) = if entering {
@@ -475,7 +562,7 @@ impl<C: Counters, Q: Queries> Tracer<'_, C, Q> {
         let eps = self.offset_scale + 2e-6 * p.abs().max_element();
         let above = p + ng * eps;
         let mut color = Vec3::ZERO;
-        for light in &self.scene.lights {
+        for light in &scene.lights {
             let to_light = light.position - above;
             if ns.dot(to_light) <= 0.0 {
                 continue;
@@ -483,7 +570,7 @@ impl<C: Counters, Q: Queries> Tracer<'_, C, Q> {
             self.counts.shadow_rays += 1;
             let visibility = self
                 .queries
-                .light(self.scene, above, to_light, &mut self.counters);
+                .light(self.stage, above, to_light, &mut self.counters);
             if visibility <= 0.0 {
                 self.counts.shadow_hits += 1;
                 continue;
