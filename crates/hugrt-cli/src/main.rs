@@ -20,7 +20,7 @@ use hugrt::accel::{AnyAccel, COUNTERS, STRUCTURES};
 use hugrt::batch::{HitFormat, Query};
 use hugrt::bench::Workload;
 use hugrt::render::{DEFAULT_SCENE, ImageFormat, RenderJob, check_image, save_image};
-use hugrt::scene::{Scene, View, generate};
+use hugrt::scene::{InstancedScene, Scene, View, generate};
 use hugrt::stats::StatsReport;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::path::PathBuf;
@@ -165,13 +165,16 @@ struct StatsArgs {
 
 #[derive(clap::Args)]
 struct GenArgs {
-    /// What to generate.
-    #[arg(value_parser = clap::builder::PossibleValuesParser::new(generate::KINDS.iter().map(|k| k.0)))]
+    /// What to generate (town with --instanced only).
+    #[arg(value_parser = clap::builder::PossibleValuesParser::new(generate::KINDS.iter().map(|k| k.0).chain(["town"])))]
     kind: String,
     #[arg(long, default_value_t = 0, help = size_help())]
     size: u32,
     #[arg(long, default_value_t = 1)]
     seed: u64,
+    /// Write models and their instances (NFF's define/instance), each model once.
+    #[arg(long, long_help = format!("Write models and their instances (NFF's define/instance, docs/nff-and-spd.md), each model once: {}", generate::INSTANCED_HELP))]
+    instanced: bool,
     /// Output file: .nff or .ply.
     #[arg(short, long)]
     output: PathBuf,
@@ -524,11 +527,28 @@ impl TraceArgs {
         };
         hugrt::batch::check_format(query, hit_format).context("--hit-format full")?;
         pool(threads)?.install(|| {
-            let scene = load_scene(&scene)?;
+            let mut instanced = InstancedScene::open(&scene)?;
             let bytes =
                 std::fs::read(&rays).with_context(|| format!("reading {}", rays.display()))?;
             let ray_list =
                 hugrt::batch::decode_rays(&bytes).with_context(|| rays.display().to_string())?;
+            if instanced.has_instances() {
+                if counters {
+                    bail!("--counters: not offered through instances");
+                }
+                let t = std::time::Instant::now();
+                let world = hugrt::world::World::build(instanced, &accel)?;
+                let build_s = t.elapsed().as_secs_f64();
+                let traced = hugrt::batch::trace_world_timed(
+                    &world,
+                    &ray_list,
+                    query,
+                    hit_format,
+                    repeat as usize,
+                )?;
+                return write_traced(&hits, &traced, build_s, ray_list.len());
+            }
+            let scene = instanced.models.pop().expect("a world").scene;
             let (acc, build_s) = build(&scene, &accel)?;
             let traced = hugrt::batch::trace_timed(
                 &scene,
@@ -538,16 +558,7 @@ impl TraceArgs {
                 hit_format,
                 repeat as usize,
             )?;
-            std::fs::write(&hits, &traced.bytes)
-                .with_context(|| format!("writing {}", hits.display()))?;
-            let trace_ms = traced.timing.median_ms;
-            say!(
-                "build {:.1} ms, trace {trace_ms:.1} ms, {} rays, {} hits, {:.2} Mrays/s",
-                build_s * 1e3,
-                ray_list.len(),
-                traced.hits,
-                ray_list.len() as f64 / (trace_ms * 1e-3).max(1e-9) / 1e6
-            );
+            write_traced(&hits, &traced, build_s, ray_list.len())?;
             if counters {
                 let c = hugrt::batch::count(&scene, &acc, &ray_list, query);
                 print_counters(&c, ray_list.len() as u64)?;
@@ -555,6 +566,24 @@ impl TraceArgs {
             Ok(())
         })
     }
+}
+
+/// Writes a batch's hits and says what it took.
+fn write_traced(
+    hits: &std::path::Path,
+    traced: &hugrt::batch::Traced,
+    build_s: f64,
+    rays: usize,
+) -> Result<()> {
+    std::fs::write(hits, &traced.bytes).with_context(|| format!("writing {}", hits.display()))?;
+    let trace_ms = traced.timing.median_ms;
+    say!(
+        "build {:.1} ms, trace {trace_ms:.1} ms, {rays} rays, {} hits, {:.2} Mrays/s",
+        build_s * 1e3,
+        traced.hits,
+        rays as f64 / (trace_ms * 1e-3).max(1e-9) / 1e6
+    );
+    Ok(())
 }
 
 impl StatsArgs {
@@ -583,7 +612,23 @@ impl GenArgs {
             size,
             seed,
             output,
+            instanced,
         } = self;
+        if instanced || kind == "town" {
+            if !instanced {
+                bail!("town is made of instances only: add --instanced");
+            }
+            if size > generate::MAX_INSTANCED_SIZE {
+                bail!("size {size}: at most {}", generate::MAX_INSTANCED_SIZE);
+            }
+            let (primitives, lights) =
+                hugrt::scene::write::save_generated_instanced(&kind, size, seed, &output)?;
+            say!(
+                "{kind} (size {size}, seed {seed}, instanced): {primitives} primitives once flattened, {lights} lights -> {}",
+                output.display()
+            );
+            return Ok(());
+        }
         let size = generate::resolve_size(&kind, size)?;
         let (primitives, lights) = hugrt::scene::write::save_generated(&kind, size, seed, &output)?;
         say!(

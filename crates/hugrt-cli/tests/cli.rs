@@ -775,3 +775,84 @@ fn reproduce_index_renders_in_chromium_with_every_image_and_no_error() {
         "a missing image went unnoticed: {found}"
     );
 }
+
+/// An instanced building from `gen --instanced`: rendered, traced (hits by model, primitive
+/// and instance) and measured with its instances kept.
+#[test]
+fn instanced_scenes_render_trace_and_report_their_instances() {
+    let dir = tempfile::tempdir().unwrap();
+    let nff = dir.path().join("b.nff");
+    let o = hugrt(&["gen", "town", "-o", nff.to_str().unwrap()]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("--instanced"), "{}", stderr(&o));
+    let o = hugrt(&[
+        "gen",
+        "building",
+        "--instanced",
+        "--size",
+        "3",
+        "-o",
+        nff.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stdout(&o).contains("instanced"), "{}", stdout(&o));
+    let png = dir.path().join("b.png");
+    let json = dir.path().join("b.json");
+    let o = hugrt(&[
+        "render",
+        nff.to_str().unwrap(),
+        "-o",
+        png.to_str().unwrap(),
+        "--width",
+        "48",
+        "--height",
+        "48",
+        "--quiet",
+        "--stats-json",
+        json.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let j: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    assert_eq!(j["instances"], 3);
+    assert!(j["eye_hits"].as_u64().unwrap() > 100, "{j}");
+    // A ray down the middle of the first kitchen hits its floor from above.
+    let rays = dir.path().join("r.bin");
+    let hits = dir.path().join("h.bin");
+    write_rays(
+        &rays,
+        &[
+            [3.0, 2.5, 2.5, 0.0, 0.0, -1.0, 0.0, f32::INFINITY],
+            [3.0, -5.0, 2.5, 0.0, 0.0, -1.0, 0.0, f32::INFINITY],
+        ],
+    );
+    let o = hugrt(&[
+        "trace",
+        nff.to_str().unwrap(),
+        "--rays",
+        rays.to_str().unwrap(),
+        "--hits",
+        hits.to_str().unwrap(),
+        "--hit-format",
+        "instanced",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let bytes = std::fs::read(&hits).unwrap();
+    assert_eq!(bytes.len(), 48);
+    let u32_at = |k: usize| u32::from_le_bytes(bytes[k..k + 4].try_into().unwrap());
+    let t = f32::from_le_bytes(bytes[0..4].try_into().unwrap());
+    assert!(t > 0.0 && t <= 2.5, "t {t}");
+    assert_eq!(
+        (u32_at(4), u32_at(12)),
+        (0, 0),
+        "model 0 (the kitchen), instance 0"
+    );
+    assert_eq!(
+        f32::from_le_bytes(bytes[24..28].try_into().unwrap()),
+        f32::INFINITY
+    );
+    let o = hugrt(&["stats", nff.to_str().unwrap(), "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let j: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    assert_eq!(j["structure"]["instances"], 3.0);
+    assert_eq!(j["structure"]["models"], 2.0);
+}

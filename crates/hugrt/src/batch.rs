@@ -7,14 +7,22 @@
 //! `f32 u, v`, `f32 nx, ny, nz` (28 bytes; a miss is +inf, `0xFFFFFFFF` and zeros). The
 //! all-hits format ([`encode_all_hits`]) holds per ray a `u32` count, then that many pairs
 //! `f32 t`, `u32` index in order of `t` (ties by index), records of varying length.
+//!
+//! The instanced hits format ([`encode_instanced_hits`], for scenes of instances,
+//! [`crate::world`]) holds per ray `f32 t`, `u32` model, `u32` primitive in the model, `u32`
+//! instance of the world (`0xFFFFFFFF` for the world's own geometry), `u64` index in the
+//! flattened world (24 bytes; a miss is +inf and all ones). In the other formats an instanced
+//! world's hit is its flattened index, which must then be below 2^32 − 1.
 
-use crate::accel::{AnyAccel, Hit, NoCounters, Primitives, RayCounters};
+use crate::accel::{AnyAccel, Hit, HitDetails, NoCounters, Primitives, RayCounters};
 use crate::geometry::{Ray, Vec3};
+use crate::world::{InstanceHit, World};
 use rayon::prelude::*;
 
 pub const RAY_BYTES: usize = 32;
 pub const HIT_BYTES: usize = 8;
 pub const FULL_HIT_BYTES: usize = 28;
+pub const INSTANCED_HIT_BYTES: usize = 24;
 
 #[derive(Debug, thiserror::Error)]
 #[error("rays file is {len} bytes, not a multiple of {RAY_BYTES} (8 little-endian f32 per ray)")]
@@ -72,24 +80,24 @@ pub fn encode_full_hits<P: Primitives>(prims: &P, rays: &[Ray], hits: &[Option<H
     let records: Vec<[u8; FULL_HIT_BYTES]> = hits
         .par_iter()
         .zip(rays.par_iter())
-        .map(|(h, r)| {
-            let (t, p, u, v, n) = match h {
-                Some(h) => {
-                    let d = h.details(prims, r);
-                    (d.t, d.prim, d.u, d.v, d.normal)
-                }
-                None => (f32::INFINITY, u32::MAX, 0.0, 0.0, Vec3::ZERO),
-            };
-            let mut rec = [0u8; FULL_HIT_BYTES];
-            rec[0..4].copy_from_slice(&t.to_le_bytes());
-            rec[4..8].copy_from_slice(&p.to_le_bytes());
-            for (k, x) in [u, v, n.x, n.y, n.z].into_iter().enumerate() {
-                rec[8 + 4 * k..12 + 4 * k].copy_from_slice(&x.to_le_bytes());
-            }
-            rec
-        })
+        .map(|(h, r)| full_record(h.map(|h| h.details(prims, r))))
         .collect();
     records.concat()
+}
+
+/// One record of the full format: a hit's details, or a miss (+inf, all ones, zeros).
+fn full_record(d: Option<HitDetails>) -> [u8; FULL_HIT_BYTES] {
+    let (t, p, u, v, n) = match d {
+        Some(d) => (d.t, d.prim, d.u, d.v, d.normal),
+        None => (f32::INFINITY, u32::MAX, 0.0, 0.0, Vec3::ZERO),
+    };
+    let mut rec = [0u8; FULL_HIT_BYTES];
+    rec[0..4].copy_from_slice(&t.to_le_bytes());
+    rec[4..8].copy_from_slice(&p.to_le_bytes());
+    for (k, x) in [u, v, n.x, n.y, n.z].into_iter().enumerate() {
+        rec[8 + 4 * k..12 + 4 * k].copy_from_slice(&x.to_le_bytes());
+    }
+    rec
 }
 
 /// Which query a batch runs.
@@ -122,11 +130,13 @@ pub enum HitFormat {
     #[default]
     Basic,
     Full,
+    /// Model, primitive, instance and flattened index (module documentation).
+    Instanced,
 }
 
 impl HitFormat {
     /// Every format's name, as `str::parse` reads it.
-    pub const NAMES: &[&str] = &["basic", "full"];
+    pub const NAMES: &[&str] = &["basic", "full", "instanced"];
 }
 
 impl std::str::FromStr for HitFormat {
@@ -135,6 +145,7 @@ impl std::str::FromStr for HitFormat {
         match s {
             "basic" => Ok(HitFormat::Basic),
             "full" => Ok(HitFormat::Full),
+            "instanced" => Ok(HitFormat::Instanced),
             _ => Err(format!(
                 "unknown hit format '{s}'; formats: {}",
                 Self::NAMES.join(", ")
@@ -145,12 +156,12 @@ impl std::str::FromStr for HitFormat {
 
 /// A query and a hits format that do not go together.
 #[derive(Debug, thiserror::Error)]
-#[error("the full hits format describes closest hits, not the answers of {} queries", .0.name())]
+#[error("the full and instanced hits formats describe closest hits, not the answers of {} queries", .0.name())]
 pub struct FormatError(pub Query);
 
 /// Checks that `format` can write the answers of `query`, before any work.
 pub fn check_format(query: Query, format: HitFormat) -> Result<(), FormatError> {
-    if format == HitFormat::Full && query != Query::Closest {
+    if format != HitFormat::Basic && query != Query::Closest {
         return Err(FormatError(query));
     }
     Ok(())
@@ -195,6 +206,21 @@ pub fn trace_timed<P: Primitives>(
         let bytes = match format {
             HitFormat::Basic => encode_hits(&result),
             HitFormat::Full => encode_full_hits(prims, rays, &result),
+            HitFormat::Instanced => {
+                let records: Vec<Option<InstanceRecord>> = result
+                    .iter()
+                    .map(|h| {
+                        h.map(|h| InstanceRecord {
+                            t: h.t,
+                            model: 0,
+                            prim: h.prim,
+                            instance: u32::MAX,
+                            flat: h.prim as u64,
+                        })
+                    })
+                    .collect();
+                encode_instance_records(&records)
+            }
         };
         (bytes, hits)
     };
@@ -340,4 +366,126 @@ pub fn camera_rays(bounds: &crate::geometry::Aabb, w: u32, h: u32) -> Vec<Ray> {
         }
     }
     rays
+}
+
+/// One record of the instanced hits format.
+struct InstanceRecord {
+    t: f32,
+    model: u32,
+    prim: u32,
+    instance: u32,
+    flat: u64,
+}
+
+fn encode_instance_records(hits: &[Option<InstanceRecord>]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(hits.len() * INSTANCED_HIT_BYTES);
+    for h in hits {
+        match h {
+            Some(h) => {
+                out.extend_from_slice(&h.t.to_le_bytes());
+                for x in [h.model, h.prim, h.instance] {
+                    out.extend_from_slice(&x.to_le_bytes());
+                }
+                out.extend_from_slice(&h.flat.to_le_bytes());
+            }
+            None => {
+                out.extend_from_slice(&f32::INFINITY.to_le_bytes());
+                out.extend_from_slice(&[0xFF; INSTANCED_HIT_BYTES - 4]);
+            }
+        }
+    }
+    out
+}
+
+/// An instanced world's closest hits in the instanced format (module documentation).
+pub fn encode_instanced_hits(hits: &[Option<InstanceHit>]) -> Vec<u8> {
+    let records: Vec<Option<InstanceRecord>> = hits
+        .iter()
+        .map(|h| {
+            h.map(|h| InstanceRecord {
+                t: h.t,
+                model: h.model,
+                prim: h.prim,
+                instance: h.instances.top().unwrap_or(u32::MAX),
+                flat: h.flat_prim,
+            })
+        })
+        .collect();
+    encode_instance_records(&records)
+}
+
+/// [`trace_timed`] for an instanced world: closest or any hits (all-hits through instances
+/// is not offered), closest hits in any format, the basic and full ones by flattened index.
+pub fn trace_world_timed(
+    world: &World,
+    rays: &[Ray],
+    query: Query,
+    format: HitFormat,
+    repeat: usize,
+) -> Result<Traced, crate::Error> {
+    check_format(query, format).map_err(|e| crate::Error::Invalid(e.to_string()))?;
+    if query == Query::All {
+        return Err(crate::Error::Invalid(
+            "all-hits queries through instances are not offered: trace the flattened scene".into(),
+        ));
+    }
+    if format != HitFormat::Instanced && world.flattened_primitives() >= u32::MAX as u64 {
+        return Err(crate::Error::Invalid(format!(
+            "{} primitives once flattened: more than a u32 index holds; use --hit-format instanced",
+            world.flattened_primitives()
+        )));
+    }
+    let mut times = Vec::new();
+    let mut result: Vec<Option<InstanceHit>> = vec![None; rays.len()];
+    for _ in 0..repeat.max(1) {
+        let t = std::time::Instant::now();
+        result
+            .par_iter_mut()
+            .zip(rays.par_iter())
+            .with_min_len(64)
+            .for_each(|(o, r)| {
+                *o = if query == Query::Any {
+                    world.any_hit(r, &mut NoCounters).then(|| InstanceHit {
+                        t: 1.0,
+                        flat_prim: 0,
+                        ..InstanceHit::none()
+                    })
+                } else {
+                    world.closest_hit(r, &mut NoCounters)
+                };
+            });
+        times.push(t.elapsed().as_secs_f64());
+    }
+    let hits = result.iter().filter(|h| h.is_some()).count();
+    let flat = |h: &InstanceHit| Hit {
+        t: h.t,
+        prim: h.flat_prim as u32,
+    };
+    let bytes = match format {
+        HitFormat::Basic => encode_hits(
+            &result
+                .iter()
+                .map(|h| h.as_ref().map(flat))
+                .collect::<Vec<_>>(),
+        ),
+        HitFormat::Instanced => encode_instanced_hits(&result),
+        HitFormat::Full => {
+            let records: Vec<[u8; FULL_HIT_BYTES]> = result
+                .par_iter()
+                .zip(rays.par_iter())
+                .map(|(h, r)| {
+                    full_record(h.map(|h| HitDetails {
+                        prim: h.flat_prim as u32,
+                        ..world.details(&h, r)
+                    }))
+                })
+                .collect();
+            records.concat()
+        }
+    };
+    Ok(Traced {
+        bytes,
+        hits,
+        timing: crate::bench::Timing::from_secs(times),
+    })
 }

@@ -70,11 +70,28 @@ pub struct StatsReport {
 }
 
 impl StatsReport {
-    /// Opens the scene `name` ([`crate::scene::Scene::open`]), builds `spec` over it and
-    /// gathers both statistics.
+    /// Opens the scene `name` ([`crate::scene::InstancedScene::open`]), builds `spec` over
+    /// it and gathers both statistics. A scene of instances is built as a
+    /// [`crate::world::World`]: its scene statistics are the world model's objects (its own
+    /// primitives and its instances), its structure's those of the top level with the
+    /// world's counts ahead (`models`, `instances`, `flattened_primitives`, ...).
     pub fn measure(name: &str, spec: &str) -> Result<StatsReport, crate::Error> {
         crate::accel::AnyAccel::check(spec).map_err(|e| crate::Error::spec(spec, e))?;
-        let scene = crate::scene::Scene::open(name)?;
+        let mut instanced = crate::scene::InstancedScene::open(name)?;
+        if instanced.has_instances() {
+            let t = std::time::Instant::now();
+            let world = crate::world::World::build(instanced, spec)?;
+            let build_seconds = t.elapsed().as_secs_f64();
+            return Ok(StatsReport {
+                scene: name.to_string(),
+                accel: spec.to_string(),
+                scene_stats: scene_stats(&world.top().1),
+                scene_memory_bytes: world.scene_memory_bytes(),
+                build_seconds,
+                structure: world.stats(),
+            });
+        }
+        let scene = instanced.models.pop().expect("a world").scene;
         let scene_stats = scene_stats(&scene);
         let t = std::time::Instant::now();
         let accel =

@@ -166,6 +166,24 @@ pub struct InstanceHit {
     pub to_world: Affine3A,
 }
 
+impl InstanceHit {
+    /// A hit of nothing in particular: the world's own primitive 0 at `t = 0`, for filling
+    /// answers that carry no hit's details (any-hit queries).
+    pub fn none() -> InstanceHit {
+        InstanceHit {
+            t: 0.0,
+            model: 0,
+            prim: 0,
+            instances: InstancePath {
+                len: 0,
+                ids: [0; MAX_NESTING],
+            },
+            flat_prim: 0,
+            to_world: Affine3A::IDENTITY,
+        }
+    }
+}
+
 /// An instanced scene with every model's structure built.
 pub struct World {
     models: Vec<BuiltModel>,

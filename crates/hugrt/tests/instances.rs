@@ -405,3 +405,122 @@ fn an_instanced_world_renders_as_its_flattened_copies() {
         }
     }
 }
+
+/// `hugrt gen building --instanced` as NFF, read back model for model: the same
+/// primitives, instances and transforms.
+#[test]
+fn instanced_nff_reads_back_what_was_written() {
+    use hugrt::scene::generate;
+    let scene = generate::instanced("building", 3, 7).unwrap();
+    let mut bytes = Vec::new();
+    hugrt::scene::write::write_instanced_nff(&scene, &mut bytes).unwrap();
+    let text = String::from_utf8(bytes.clone()).unwrap();
+    assert_eq!(text.matches("\ninstance kitchen ").count(), 3);
+    let path = std::env::temp_dir().join(format!("hugrt-instanced-{}.nff", std::process::id()));
+    std::fs::write(&path, &bytes).unwrap();
+    let back = InstancedScene::open(path.to_str().unwrap()).unwrap();
+    assert_eq!(back.models.len(), 2);
+    for (a, b) in scene.models.iter().zip(&back.models) {
+        assert_eq!(a.instances, b.instances, "{}", a.name);
+        assert_eq!(a.scene.len(), b.scene.len(), "{}", a.name);
+        assert!(a.scene.primitives().eq(b.scene.primitives()), "{}", a.name);
+        for p in 0..a.scene.len() as u32 {
+            assert_eq!(a.scene.material(p), b.scene.material(p));
+        }
+    }
+    assert_eq!(
+        back.world().unwrap().scene.camera,
+        scene.world().unwrap().scene.camera
+    );
+    // Asked for flat, the same file comes flattened into copies.
+    let flat = Scene::load(&path).unwrap();
+    assert_eq!(flat.len() as u64, scene.flattened_counts()[1]);
+    std::fs::remove_file(&path).ok();
+}
+
+#[test]
+fn instance_lines_take_matrices_and_steps() {
+    let nff = |body: &str| {
+        let text = format!("define box\np 3\n0 0 0\n1 0 0\n0 1 0\nend\n{body}\n");
+        Scene::from_bytes("t.nff", text.as_bytes()).map(|s| s.shapes)
+    };
+    let moved = nff("instance box translate 1 2 3 rotate 0 0 1 90 scale 2").unwrap();
+    let want = Affine3A::from_scale(Vec3::splat(2.0))
+        * Affine3A::from_rotation_z(90f32.to_radians())
+        * Affine3A::from_translation(Vec3::new(1.0, 2.0, 3.0));
+    let hugrt::geometry::Shape::Triangle(v) = moved[0] else {
+        panic!("{moved:?}")
+    };
+    assert!(
+        v[1].distance(want.transform_point3(Vec3::X)) < 1e-5,
+        "{v:?}"
+    );
+    let matrix = nff("instance box 0 -1 0 5  1 0 0 6  0 0 -1 7").unwrap();
+    let hugrt::geometry::Shape::Triangle(v) = matrix[0] else {
+        panic!()
+    };
+    assert_eq!(
+        v,
+        [
+            Vec3::new(5.0, 6.0, 7.0),
+            Vec3::new(5.0, 7.0, 7.0),
+            Vec3::new(4.0, 6.0, 7.0)
+        ]
+    );
+    for (body, says) in [
+        ("instance cup translate 0 0 0", "no model 'cup'"),
+        ("instance box spin 3", "'spin' is not a transform step"),
+        (
+            "instance box translate 1 2",
+            "'translate' expects 3 numbers",
+        ),
+        ("instance box scale 1 0 1", "singular"),
+        ("instance box rotate 0 0 0 30", "axis is zero"),
+        ("end", "end without a definition"),
+        ("define box\nend", "already defined"),
+        ("define cup\nl 0 0 0\nend", "lights belong to the world"),
+        ("define cup\ndefine mug", "inside a definition"),
+        (
+            "define cup\ninstance box translate 0 0 0",
+            "'cup' not ended",
+        ),
+    ] {
+        let e = nff(body).unwrap_err().to_string();
+        assert!(e.contains(says), "{body}: {e}");
+        assert!(e.contains("t.nff:"), "{body}: names no line: {e}");
+    }
+}
+
+/// `hugrt render` of a built-in instanced building: its world built through instances
+/// renders as the building flattened into copies (quarter turns round their sines, so the
+/// copies' vertices move by an ulp: a few pixels on edges may differ).
+#[test]
+fn a_render_job_renders_instances_as_their_copies() {
+    use hugrt::render::{RenderJob, RenderSettings, render};
+    let name = "builtin:building:2:instanced";
+    let job = RenderJob {
+        width: Some(96),
+        height: Some(96),
+        ..RenderJob::new(name, "hug")
+    };
+    let (got, report) = job.run(&|_, _| {}).unwrap();
+    assert_eq!(report.instances, Some(2));
+    let flat = Scene::open(name).unwrap();
+    assert_eq!(report.primitives, flat.len());
+    let accel = hugrt::accel::AnyAccel::build(&flat, "hug").unwrap();
+    let settings = RenderSettings {
+        width: 96,
+        height: 96,
+        depth: 4,
+        counters: false,
+    };
+    let want = render(&flat, &accel, &settings, &|_| {});
+    let differ = want
+        .image
+        .pixels()
+        .zip(got.image.pixels())
+        .filter(|(a, b)| a != b)
+        .count();
+    assert!(differ * 200 <= 96 * 96, "{differ} pixels differ");
+    assert!(want.counts.eye_hits > 1000, "{:?}", want.counts);
+}

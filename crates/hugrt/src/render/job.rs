@@ -2,10 +2,11 @@
 //! structure built (and the occluders' for soft shadows), the image rendered, every step
 //! timed; each setting checked before any work.
 
-use super::{RenderReport, RenderSettings, Rendered, SoftShadows, render_impl};
+use super::{RenderReport, RenderSettings, Rendered, SoftShadows, render_impl, render_world};
 use crate::Error;
 use crate::accel::AnyAccel;
-use crate::scene::{Scene, View};
+use crate::scene::{InstancedScene, View};
+use crate::world::World;
 use std::time::Instant;
 
 /// What `hugrt render` renders when no scene is named: EG95's case, built in, so that it
@@ -18,7 +19,7 @@ pub const MAX_SIDE: u32 = 65536;
 /// What to render and how.
 #[derive(Clone, Debug)]
 pub struct RenderJob {
-    /// A scene by name ([`Scene::open`]).
+    /// A scene by name ([`InstancedScene::open`]: a scene of instances keeps them).
     pub scene: String,
     /// The structure's spec ([`AnyAccel::build`]).
     pub accel: String,
@@ -78,7 +79,11 @@ impl RenderJob {
     ) -> Result<(Rendered, RenderReport), Error> {
         self.check()?;
         let t = Instant::now();
-        let mut scene = Scene::open(&self.scene)?;
+        let mut instanced = InstancedScene::open(&self.scene)?;
+        if instanced.has_instances() {
+            return self.run_instanced(instanced, t, progress);
+        }
+        let mut scene = instanced.models.pop().expect("a world").scene;
         if scene.is_empty() && !self.allow_empty {
             return Err(Error::Empty(self.scene.clone()));
         }
@@ -127,6 +132,65 @@ impl RenderJob {
             counters_per_level: out.counters.as_ref().map(|k| k.used_levels().to_vec()),
             structure: accel.name(),
             lights: scene.lights.len(),
+            instances: None,
+        };
+        Ok((out, report))
+    }
+}
+
+impl RenderJob {
+    /// [`RenderJob::run`] for a scene of instances: each model's structure built once
+    /// ([`World`]), hard shadows.
+    fn run_instanced(
+        &self,
+        mut scene: InstancedScene,
+        t: Instant,
+        progress: &(dyn Fn(u64, u64) + Sync),
+    ) -> Result<(Rendered, RenderReport), Error> {
+        if self.soft_shadows.is_some() {
+            return Err(Error::Invalid(format!(
+                "{}: soft shadows through instances are not offered",
+                self.scene
+            )));
+        }
+        let world_scene = &mut scene.models.last_mut().expect("a world").scene;
+        world_scene.camera = world_scene.camera.viewed(&self.view)?;
+        let load_seconds = t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let world = World::build(scene, &self.accel)?;
+        if world.flattened_primitives() == 0 && !self.allow_empty {
+            return Err(Error::Empty(self.scene.clone()));
+        }
+        let build_seconds = t.elapsed().as_secs_f64();
+        let camera = &world.scene().camera;
+        let settings = RenderSettings {
+            width: self.width.unwrap_or(camera.width),
+            height: self.height.unwrap_or(camera.height),
+            depth: self.depth,
+            counters: self.counters,
+        };
+        check_image(Some(settings.width), Some(settings.height), None)?;
+        let total = settings.height as u64 + 1;
+        let t = Instant::now();
+        let out = render_world(&world, &settings, &|n| progress(n, total));
+        let render_seconds = t.elapsed().as_secs_f64();
+        let (accel, _) = world.top();
+        let report = RenderReport {
+            counts: out.counts,
+            scene: self.scene.clone(),
+            accel: self.accel.clone(),
+            primitives: world.flattened_primitives() as usize,
+            width: settings.width,
+            height: settings.height,
+            load_seconds,
+            build_seconds,
+            render_seconds,
+            accel_memory_bytes: world.memory_bytes(),
+            soft_shadow_radius: None,
+            counters_per_level: out.counters.as_ref().map(|k| k.used_levels().to_vec()),
+            structure: accel.name(),
+            lights: world.scene().lights.len(),
+            instances: Some(world.instances()),
         };
         Ok((out, report))
     }

@@ -69,6 +69,10 @@ pub struct RenderReport {
     /// The structure's name (`accel` is its spec).
     pub structure: &'static str,
     pub lights: usize,
+    /// Instances placed, for a scene of instances (each model's structure built once;
+    /// `primitives` then counts the flattened world).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub instances: Option<u64>,
 }
 
 /// Ray counts of a rendering, as the SPD notes tabulate them.

@@ -136,6 +136,23 @@ impl InstancedScene {
         Ok(())
     }
 
+    /// The world's box: every model's own box and its instances' boxes, transformed.
+    pub fn bounds(&self) -> Aabb {
+        let mut boxes: Vec<Aabb> = Vec::with_capacity(self.models.len());
+        for m in &self.models {
+            let own = m.scene.bounds();
+            boxes.push(
+                m.instances
+                    .iter()
+                    .fold(own, |b, i| match boxes.get(i.model as usize) {
+                        Some(child) => b.union(&transformed_box(&i.transform, child)),
+                        None => b,
+                    }),
+            );
+        }
+        boxes.last().copied().unwrap_or(Aabb::EMPTY)
+    }
+
     /// Primitives of each model with its copies flattened (saturating): the world's is the
     /// scene's count as a flattened copy would have it.
     pub fn flattened_counts(&self) -> Vec<u64> {

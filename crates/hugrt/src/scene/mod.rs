@@ -173,17 +173,55 @@ impl Scene {
 
     /// A scene by name: `builtin:room[:TRIANGLES]` (the clustered room of [`procedural`]),
     /// `builtin:KIND[:SIZE]` for a generated scene ([`generate::KINDS`]), or a file
-    /// ([`Scene::load`]).
+    /// ([`Scene::load`]). An instanced scene (`builtin:town`, `builtin:KIND:SIZE:instanced`,
+    /// an NFF file with `instance` lines) comes flattened into copies, up to
+    /// [`MAX_FLATTENED`] primitives; [`InstancedScene::open`] keeps its instances.
     pub fn open(name: &str) -> Result<Scene, SceneError> {
+        match Builtin::parse(name)? {
+            None => Scene::load(name),
+            Some(Builtin::Flat(scene)) => Ok(scene),
+            Some(Builtin::Instanced(scene)) => flatten_for(name, &scene),
+        }
+    }
+
+    /// Parses scene data; `name`'s extension picks the format, as in [`Scene::load`]. An NFF
+    /// file's instances come flattened ([`Scene::open`]).
+    pub fn from_bytes(name: &str, raw: &[u8]) -> Result<Scene, SceneError> {
+        let mut scene = parse_any(name, raw)?;
+        if scene.models.len() == 1 {
+            return Ok(scene.models.pop().expect("one model").scene);
+        }
+        flatten_for(name, &scene)
+    }
+}
+
+/// A built-in scene's name parsed and generated: `None` for a name that is not
+/// `builtin:...`.
+enum Builtin {
+    Flat(Scene),
+    Instanced(InstancedScene),
+}
+
+impl Builtin {
+    fn parse(name: &str) -> Result<Option<Builtin>, SceneError> {
         let Some(rest) = name.strip_prefix("builtin:") else {
-            return Scene::load(name);
+            return Ok(None);
         };
-        let (kind, size) = match rest.split_once(':') {
-            Some((k, s)) => (k, Some(s)),
-            None => (rest, None),
+        let mut parts = rest.splitn(3, ':');
+        let kind = parts.next().unwrap_or_default();
+        let size = parts.next();
+        let instanced = match parts.next() {
+            None => kind == "town",
+            Some("instanced") => true,
+            Some(other) => {
+                return Err(SceneError::invalid(
+                    name,
+                    format!("'{other}' after the size: the one word there is 'instanced'"),
+                ));
+            }
         };
         let bad = |reason: String| SceneError::invalid(name, reason);
-        if kind == "room" {
+        if kind == "room" && !instanced {
             let n = match size {
                 None => 60_000,
                 Some(s) => s
@@ -194,16 +232,33 @@ impl Scene {
                         bad(format!("'{s}' is not a triangle count in 1..=100000000"))
                     })?,
             };
-            return Ok(procedural::clustered_room(n, 1));
+            return Ok(Some(Builtin::Flat(procedural::clustered_room(n, 1))));
         }
-        if !generate::KINDS.iter().any(|(k, _, _)| *k == kind) {
-            let kinds: Vec<&str> = generate::KINDS.iter().map(|k| k.0).collect();
+        let known = if instanced {
+            generate::INSTANCED_KINDS.contains(&kind)
+        } else {
+            generate::KINDS.iter().any(|(k, _, _)| *k == kind)
+        };
+        if !known {
+            let kinds: Vec<&str> = if instanced {
+                generate::INSTANCED_KINDS.to_vec()
+            } else {
+                std::iter::once("room")
+                    .chain(generate::KINDS.iter().map(|k| k.0))
+                    .chain(["town"])
+                    .collect()
+            };
+            let what = if instanced { "instanced " } else { "" };
             return Err(bad(format!(
-                "unknown built-in scene '{kind}' (there are: room, {})",
+                "unknown {what}built-in scene '{kind}' (there are: {})",
                 kinds.join(", ")
             )));
         }
-        let max = generate::max_size(kind);
+        let max = if instanced {
+            generate::MAX_INSTANCED_SIZE
+        } else {
+            generate::max_size(kind)
+        };
         let size = match size {
             None => 0,
             Some(s) => s
@@ -212,11 +267,40 @@ impl Scene {
                 .filter(|n| (1..=max).contains(n))
                 .ok_or_else(|| bad(format!("'{s}' is not a size in 1..={max}")))?,
         };
-        Ok(generate::generate(kind, size, 1).expect("a known kind"))
+        Ok(Some(if instanced {
+            Builtin::Instanced(generate::instanced(kind, size, 1).expect("a known kind"))
+        } else {
+            Builtin::Flat(generate::generate(kind, size, 1).expect("a known kind"))
+        }))
+    }
+}
+
+impl InstancedScene {
+    /// A scene by name with its instances kept: `builtin:town[:N]`,
+    /// `builtin:KIND:SIZE:instanced` ([`generate::instanced`]), an NFF file with hugrt's
+    /// `define` and `instance` lines (`docs/nff-and-spd.md`); any other scene of
+    /// [`Scene::open`] as a world of one model.
+    pub fn open(name: &str) -> Result<InstancedScene, SceneError> {
+        match Builtin::parse(name)? {
+            Some(Builtin::Flat(scene)) => Ok(InstancedScene::of_scene(scene)),
+            Some(Builtin::Instanced(scene)) => Ok(scene),
+            None => {
+                let raw = std::fs::read(name).map_err(|e| SceneError::io(name, e))?;
+                parse_any(name, &raw)
+            }
+        }
     }
 
-    /// Parses scene data; `name`'s extension picks the format, as in [`Scene::load`].
-    pub fn from_bytes(name: &str, raw: &[u8]) -> Result<Scene, SceneError> {
+    /// Whether any model places another: a world of one model is a flat scene.
+    pub fn has_instances(&self) -> bool {
+        self.models.iter().any(|m| !m.instances.is_empty())
+    }
+}
+
+/// Parses scene data of any format, `name`'s extension picking it: NFF with its models and
+/// instances, the others as a world of one model.
+fn parse_any(name: &str, raw: &[u8]) -> Result<InstancedScene, SceneError> {
+    {
         let unzipped;
         let data = if raw.starts_with(&[0x1f, 0x8b]) {
             unzipped = gunzip(raw).map_err(|e| SceneError::io(name, e))?;
@@ -237,9 +321,14 @@ impl Scene {
         } else {
             data
         };
-        let parsed = if stem.ends_with(".nff") {
-            nff::parse(&name, data)
-        } else if stem.ends_with(".ply") {
+        if stem.ends_with(".nff") {
+            let mut scene = nff::parse_instanced(&name, data)?;
+            for m in &mut scene.models {
+                m.scene = std::mem::take(&mut m.scene).with_tiny_coordinates_zeroed();
+            }
+            return Ok(scene);
+        }
+        let parsed = if stem.ends_with(".ply") {
             ply::parse(&name, data)
         } else if stem.ends_with(".obj") {
             obj::parse(&name, data)
@@ -250,9 +339,11 @@ impl Scene {
         } else {
             Err(SceneError::UnknownFormat { path: name })
         };
-        parsed.map(Scene::with_tiny_coordinates_zeroed)
+        parsed.map(|s| InstancedScene::of_scene(s.with_tiny_coordinates_zeroed()))
     }
+}
 
+impl Scene {
     /// The scene with its shapes' tiny coordinates made zero
     /// ([`Shape::with_tiny_coordinates_zeroed`]; a [`Mesh`] is made so): what every loader and
     /// [`Scene::from_triangles`] hand out.
@@ -435,6 +526,30 @@ fn gunzip(raw: &[u8]) -> std::io::Result<Vec<u8>> {
     }
     Ok(out)
 }
+
+/// An instanced scene as a flat one, for the readers whose callers want a [`Scene`]: its
+/// copies flattened ([`InstancedScene::flattened`]), when they number at most
+/// [`MAX_FLATTENED`]; [`InstancedScene::open`] keeps the instances.
+pub(crate) fn flatten_for(name: &str, scene: &InstancedScene) -> Result<Scene, SceneError> {
+    scene
+        .check()
+        .map_err(|e| SceneError::invalid(name, e.to_string()))?;
+    let n = scene.flattened_counts().last().copied().unwrap_or(0);
+    if n > MAX_FLATTENED {
+        return Err(SceneError::invalid(
+            name,
+            format!(
+                "an instanced scene of {n} primitives once flattened, past the {MAX_FLATTENED} a flat scene takes here; `hugrt render`, `trace` and `stats` take it with its instances"
+            ),
+        ));
+    }
+    scene
+        .flattened()
+        .map_err(|e| SceneError::invalid(name, e.to_string()))
+}
+
+/// The most primitives an instanced scene is flattened to when a flat scene is asked for.
+pub const MAX_FLATTENED: u64 = 1 << 26;
 
 /// Checks that a coordinate read from a file is finite, naming what it is otherwise.
 pub(crate) fn finite(x: f32) -> Result<f32, String> {

@@ -1,8 +1,14 @@
 //! NFF (Neutral File Format) of the SPD scenes, every keyword the SPD files use
-//! (`docs/nff-and-spd.md`): `v` view block, `b`, `l`, `f`, `s`, `c`, `p`, `pp`, `#`.
+//! (`docs/nff-and-spd.md`): `v` view block, `b`, `l`, `f`, `s`, `c`, `p`, `pp`, `#`; and
+//! hugrt's extension for instancing: `define NAME` ... `end` makes a model, `instance NAME
+//! TRANSFORM` places one ([`super::InstancedScene`]).
 
-use super::{Camera, Light, MAX_RESOLUTION, Material, Scene, SceneError, finite};
+use super::{
+    Camera, Instance, InstancedScene, Light, MAX_RESOLUTION, Material, Model, Scene, SceneError,
+    finite,
+};
 use crate::geometry::{Cone, Shape, Sphere, Vec3, triangulate_polygon};
+use glam::{Affine3A, Mat3};
 
 /// Most vertices one polygon may declare: a guard against absurd counts, far above any SPD file.
 const MAX_POLYGON_VERTICES: usize = 1 << 20;
@@ -63,7 +69,9 @@ impl<'a> Lines<'a> {
     }
 }
 
-pub fn parse(path: &str, data: &[u8]) -> Result<Scene, SceneError> {
+/// The file's models and world ([`InstancedScene`]): the models of its `define` blocks in
+/// file order, then the world (everything outside them).
+pub fn parse_instanced(path: &str, data: &[u8]) -> Result<InstancedScene, SceneError> {
     // Files of the SPD's era often carry Latin-1 in their comments: comments are read
     // leniently, and only the data must be text.
     let text = String::from_utf8_lossy(data);
@@ -94,10 +102,81 @@ pub fn parse(path: &str, data: &[u8]) -> Result<Scene, SceneError> {
     };
     let mut have_view = false;
     let mut pending_lights: Vec<(Vec3, Option<Vec3>)> = Vec::new();
+    let mut models: Vec<Model> = Vec::new();
+    let mut world_instances: Vec<Instance> = Vec::new();
+    // The model being defined, its material carried over from the world's.
+    let mut defining: Option<Model> = None;
     while let Some(words) = l.next_words() {
         let start = l.line;
         let args = &words[1..];
+        let in_definition = defining.is_some();
+        if in_definition && matches!(words[0], "v" | "b" | "l") {
+            return Err(l.err(format!(
+                "'{}' inside a definition: views, backgrounds and lights belong to the world",
+                words[0]
+            )));
+        }
+        let (scene, instances) = match &mut defining {
+            Some(m) => (&mut m.scene, &mut m.instances),
+            None => (&mut scene, &mut world_instances),
+        };
         match words[0] {
+            "define" => {
+                let [name] = args else {
+                    return Err(l.err("define: expected one name"));
+                };
+                if in_definition {
+                    return Err(l.err("define inside a definition: end the first one before"));
+                }
+                if models.iter().any(|m| m.name == *name) {
+                    return Err(l.err(format!("define: '{name}' is already defined")));
+                }
+                let current = scene.material_runs.last().map(|r| r.1 as usize);
+                let mut model_scene = Scene {
+                    material_runs: Vec::new(),
+                    materials: Vec::new(),
+                    lights: Vec::new(),
+                    ..Scene::default()
+                };
+                if let Some(m) = current {
+                    model_scene.materials.push(scene.materials[m]);
+                    model_scene.material_runs.push((0, 0));
+                }
+                defining = Some(Model {
+                    name: name.to_string(),
+                    scene: model_scene,
+                    instances: Vec::new(),
+                });
+            }
+            "end" => {
+                let Some(mut m) = defining.take() else {
+                    return Err(l.err("end without a definition"));
+                };
+                if !args.is_empty() {
+                    return Err(l.err("end: expected nothing after it"));
+                }
+                if m.scene.materials.is_empty() {
+                    m.scene.materials.push(Material::default());
+                    m.scene.material_runs.push((0, 0));
+                }
+                models.push(m);
+            }
+            "instance" => {
+                let Some((name, transform)) = args.split_first() else {
+                    return Err(l.err("instance: expected a model's name and a transform"));
+                };
+                let model = models
+                    .iter()
+                    .position(|m| m.name == *name)
+                    .ok_or_else(|| l.err(format!("instance: no model '{name}' defined before")))?;
+                let inst = Instance {
+                    model: model as u32,
+                    transform: parse_transform(&l, transform)?,
+                };
+                inst.check()
+                    .map_err(|reason| l.err(format!("instance of '{name}': {reason}")))?;
+                instances.push(inst);
+            }
             "v" => {
                 scene.camera = parse_view(&mut l, start)?;
                 have_view = true;
@@ -134,7 +213,7 @@ pub fn parse(path: &str, data: &[u8]) -> Result<Scene, SceneError> {
                     return Err(l.err("sphere: radius is zero"));
                 }
                 push(
-                    &mut scene,
+                    scene,
                     &l,
                     Shape::Sphere(Sphere {
                         center: Vec3::new(v[0], v[1], v[2]),
@@ -160,7 +239,7 @@ pub fn parse(path: &str, data: &[u8]) -> Result<Scene, SceneError> {
                     return Err(l.err("cone: base and apex coincide"));
                 }
                 push(
-                    &mut scene,
+                    scene,
                     &l,
                     Shape::Cone(Cone {
                         base,
@@ -197,17 +276,21 @@ pub fn parse(path: &str, data: &[u8]) -> Result<Scene, SceneError> {
                     } else {
                         Shape::Triangle(v)
                     };
-                    push(&mut scene, &l, shape)?;
+                    push(scene, &l, shape)?;
                 }
             }
             other => return Err(l.err(format!("unknown keyword '{other}'"))),
         }
     }
-    if !have_view {
-        let b = scene.bounds();
-        if !b.is_empty() {
-            scene.camera = Camera::framing(&b);
-        }
+    if let Some(m) = defining {
+        return Err(SceneError::parse(
+            path,
+            l.line + 1,
+            format!(
+                "unexpected end of file: definition of '{}' not ended",
+                m.name
+            ),
+        ));
     }
     // Uncoloured lights share the unit intensity: each gets 1/sqrt(number of lights), the
     // common SPD renderer rule, so scenes with many lights do not wash out.
@@ -223,7 +306,79 @@ pub fn parse(path: &str, data: &[u8]) -> Result<Scene, SceneError> {
         scene.materials.push(Material::default());
         scene.material_runs.push((0, 0));
     }
-    Ok(scene)
+    models.push(Model {
+        name: "world".into(),
+        scene,
+        instances: world_instances,
+    });
+    let mut instanced = InstancedScene { models };
+    if !have_view {
+        let b = instanced.bounds();
+        if !b.is_empty() {
+            let world = instanced.models.last_mut().expect("the world");
+            world.scene.camera = Camera::framing(&b);
+        }
+    }
+    Ok(instanced)
+}
+
+/// An instance's transform: twelve numbers, the rows of `[M | t]` (`p' = M·p + t`), or steps
+/// applied to the model in the order written: `translate x y z`, `rotate ax ay az degrees`
+/// (about an axis through the origin, counter-clockwise looking down the axis), `scale s` or
+/// `scale sx sy sz` (negative for a mirror).
+fn parse_transform(l: &Lines, words: &[&str]) -> Result<Affine3A, SceneError> {
+    if words.len() == 12 && words[0].parse::<f32>().is_ok() {
+        let v = l.numbers::<12>(words, "instance transform")?;
+        return Ok(Affine3A::from_mat3_translation(
+            Mat3::from_cols_array(&[v[0], v[4], v[8], v[1], v[5], v[9], v[2], v[6], v[10]]),
+            Vec3::new(v[3], v[7], v[11]),
+        ));
+    }
+    let mut t = Affine3A::IDENTITY;
+    let mut rest = words;
+    while let Some((step, after)) = rest.split_first() {
+        let take = |n: usize| {
+            if after.len() < n {
+                Err(l.err(format!("instance: '{step}' expects {n} numbers")))
+            } else {
+                Ok(&after[..n])
+            }
+        };
+        let (next, used) = match *step {
+            "translate" => (
+                Affine3A::from_translation(l.vec3(take(3)?, "translate")?),
+                3,
+            ),
+            "rotate" => {
+                let v = l.numbers::<4>(take(4)?, "rotate")?;
+                let axis = Vec3::new(v[0], v[1], v[2]);
+                if axis.length_squared() == 0.0 {
+                    return Err(l.err("rotate: the axis is zero"));
+                }
+                (
+                    Affine3A::from_axis_angle(axis.normalize(), v[3].to_radians()),
+                    4,
+                )
+            }
+            "scale" => {
+                let three = after.len() >= 3 && after[..3].iter().all(|w| w.parse::<f32>().is_ok());
+                if three {
+                    (Affine3A::from_scale(l.vec3(&after[..3], "scale")?), 3)
+                } else {
+                    let [s] = l.numbers::<1>(take(1)?, "scale")?;
+                    (Affine3A::from_scale(Vec3::splat(s)), 1)
+                }
+            }
+            other => {
+                return Err(l.err(format!(
+                    "instance: '{other}' is not a transform step (translate, rotate, scale, or twelve numbers)"
+                )));
+            }
+        };
+        t = next * t;
+        rest = &after[used..];
+    }
+    Ok(t)
 }
 
 fn push(scene: &mut Scene, l: &Lines, shape: Shape) -> Result<(), SceneError> {

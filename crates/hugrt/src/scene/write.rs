@@ -1,7 +1,7 @@
 //! Writing scenes: NFF, which holds everything a [`Scene`] has, and binary PLY, which holds
 //! triangles only.
 
-use super::{Scene, Terrain};
+use super::{InstancedScene, Scene, Terrain};
 use crate::Error;
 use crate::geometry::{Cone, Shape, Sphere, Vec3};
 use std::io::{self, Write};
@@ -71,10 +71,108 @@ pub fn save_generated(
     Ok((scene.len(), scene.lights.len()))
 }
 
+/// Writes generated scene `kind` with its instances ([`super::generate::instanced`]) to
+/// `path`, which must name an NFF file (PLY holds no instances), and returns the world's
+/// primitive count once flattened and its light count.
+pub fn save_generated_instanced(
+    kind: &str,
+    size: u32,
+    seed: u64,
+    path: &Path,
+) -> Result<(u64, usize), Error> {
+    if SceneFormat::for_path(path)? != SceneFormat::Nff {
+        return Err(Error::Format {
+            path: path.to_path_buf(),
+            reason: "instances are written as NFF only (.nff)".into(),
+        });
+    }
+    let scene = super::generate::instanced(kind, size, seed).ok_or_else(|| {
+        Error::Invalid(format!(
+            "{kind} has no instanced form (there are: {})",
+            super::generate::INSTANCED_KINDS.join(", ")
+        ))
+    })?;
+    let file = std::fs::File::create(path).map_err(|e| Error::write(path, e))?;
+    let mut w = io::BufWriter::new(file);
+    write_instanced_nff(&scene, &mut w)
+        .and_then(|()| w.flush())
+        .map_err(|e| Error::write(path, e))?;
+    let lights = scene.world().map_or(0, |m| m.scene.lights.len());
+    Ok((
+        scene.flattened_counts().last().copied().unwrap_or(0),
+        lights,
+    ))
+}
+
 /// Writes `scene` as NFF: the view, background, lights (with their colours), then each
 /// material followed by its primitives. Numbers are written in the shortest form that reads
 /// back to the same `f32`, so the scene read back is the same scene, primitive for primitive.
 pub fn write_nff(scene: &Scene, out: &mut impl Write) -> io::Result<()> {
+    write_nff_stage(scene, out)?;
+    write_nff_primitives(scene, out)
+}
+
+/// Writes an instanced scene as NFF with hugrt's extension (`docs/nff-and-spd.md`): the
+/// world's view, background and lights, each model as a `define` block, then the world's
+/// primitives and instances. [`super::InstancedScene::open`] reads it back model for model.
+pub fn write_instanced_nff(scene: &InstancedScene, out: &mut impl Write) -> io::Result<()> {
+    let Some((world, models)) = scene.models.split_last() else {
+        return Ok(());
+    };
+    // Names as the format reads them: one word each, and each its own.
+    let names: Vec<String> = models
+        .iter()
+        .enumerate()
+        .map(|(k, m)| {
+            let word: String = m
+                .name
+                .chars()
+                .map(|c| if c.is_whitespace() { '_' } else { c })
+                .collect();
+            let taken = models[..k].iter().any(|o| o.name == m.name);
+            match word.as_str() {
+                "" => format!("model{k}"),
+                _ if taken => format!("{word}{k}"),
+                _ => word,
+            }
+        })
+        .collect();
+    let instances = |list: &[super::Instance], out: &mut dyn Write| -> io::Result<()> {
+        for i in list {
+            let (m, t) = (i.transform.matrix3, i.transform.translation);
+            writeln!(
+                out,
+                "instance {} {} {} {} {} {} {} {} {} {} {} {} {}",
+                names[i.model as usize],
+                m.x_axis.x,
+                m.y_axis.x,
+                m.z_axis.x,
+                t.x,
+                m.x_axis.y,
+                m.y_axis.y,
+                m.z_axis.y,
+                t.y,
+                m.x_axis.z,
+                m.y_axis.z,
+                m.z_axis.z,
+                t.z
+            )?;
+        }
+        Ok(())
+    };
+    write_nff_stage(&world.scene, out)?;
+    for (m, name) in models.iter().zip(&names) {
+        writeln!(out, "define {name}")?;
+        write_nff_primitives(&m.scene, out)?;
+        instances(&m.instances, out)?;
+        writeln!(out, "end")?;
+    }
+    write_nff_primitives(&world.scene, out)?;
+    instances(&world.instances, out)
+}
+
+/// The view, background and lights.
+fn write_nff_stage(scene: &Scene, out: &mut impl Write) -> io::Result<()> {
     let v = |p: Vec3| format!("{} {} {}", p.x, p.y, p.z);
     let c = &scene.camera;
     writeln!(out, "# written by hugrt")?;
@@ -88,6 +186,12 @@ pub fn write_nff(scene: &Scene, out: &mut impl Write) -> io::Result<()> {
     for l in &scene.lights {
         writeln!(out, "l {} {}", v(l.position), v(l.color))?;
     }
+    Ok(())
+}
+
+/// Each material followed by its primitives.
+fn write_nff_primitives(scene: &Scene, out: &mut impl Write) -> io::Result<()> {
+    let v = |p: Vec3| format!("{} {} {}", p.x, p.y, p.z);
     let mut run = 0;
     for (i, shape) in scene.primitives().enumerate() {
         while run < scene.material_runs.len() && scene.material_runs[run].0 as usize <= i {
