@@ -547,6 +547,44 @@ fn gltf_nodes_place_meshes_and_materials_map() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// Asked for instances, a glTF mesh that several nodes place is one model, each node an
+/// instance by its world transform; a mesh placed once stays in the world. Flattened, the
+/// instances are the flat reader's triangles.
+#[test]
+fn gltf_meshes_placed_by_several_nodes_are_instances() {
+    use hugrt::scene::InstancedScene;
+    let verts = [Vec3::ZERO, Vec3::X, Vec3::Y];
+    let nodes = [
+        r#"{"mesh": 0, "rotation": [0, 0.7071068, 0, 0.7071068]}"#,
+        r#"{"mesh": 0, "children": [2], "matrix": [-2,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,5,1]}"#,
+        r#"{"mesh": 0, "translation": [10, 0, 0], "scale": [1, 3, 1]}"#,
+    ];
+    let (json, _) = gltf_mesh(&verts, &[[0, 1, 2]], &nodes, &[0, 1]);
+    let flat = Scene::from_bytes("n.gltf", json.as_bytes()).unwrap();
+    let inst = InstancedScene::from_bytes("n.gltf", json.as_bytes()).unwrap();
+    assert_eq!(inst.models.len(), 2);
+    assert_eq!(inst.models[0].scene.len(), 1);
+    assert_eq!(
+        triangles(&inst.models[0].scene),
+        vec![[Vec3::ZERO, Vec3::X, Vec3::Y]]
+    );
+    assert_eq!(inst.models[1].instances.len(), 3);
+    assert_eq!(inst.models[1].scene.len(), 0);
+    let flattened = inst.flattened().unwrap();
+    assert_eq!(flattened.len(), flat.len());
+    for (a, b) in triangles(&flat).iter().zip(triangles(&flattened)) {
+        for k in 0..3 {
+            assert!(a[k].distance(b[k]) < 1e-5, "{a:?} {b:?}");
+        }
+    }
+    assert_eq!(flattened.material(2).color, Vec3::new(0.9, 0.2, 0.1));
+    // Placed once, a mesh is read into the world.
+    let (once, _) = gltf_mesh(&verts, &[[0, 1, 2]], &[nodes[2]], &[0]);
+    let inst = InstancedScene::from_bytes("o.gltf", once.as_bytes()).unwrap();
+    assert_eq!(inst.models.len(), 1);
+    assert!(!inst.has_instances());
+}
+
 #[test]
 fn malformed_stl_and_gltf_name_file_line_and_reason() {
     let tri = [[Vec3::ZERO, Vec3::X, Vec3::Y]];

@@ -10,10 +10,11 @@
 //! colour, `Kd = 1 − metallic`, `Ks = metallic` with `Shine = 2 + 98·(1 − roughness)²`, and an
 //! alpha below 1 (blend mode) is transmittance `1 − alpha` with index 1.5 (glTF's default).
 
-use super::{Material, Scene, SceneError};
+use super::{Instance, InstancedScene, Material, Model, Scene, SceneError};
 use crate::geometry::Vec3;
 use base64::Engine;
-use glam::Mat4;
+use glam::{Affine3A, Mat4};
+use std::collections::HashMap;
 use std::path::Path;
 
 /// Most bytes a buffer may have: far above any real scene, below the machine's memory.
@@ -24,6 +25,79 @@ const MAX_DEPTH: usize = 256;
 const MAX_NODES_VISITED: usize = 1 << 20;
 
 pub fn parse(path: &str, data: &[u8]) -> Result<Scene, SceneError> {
+    let bad = |reason: String| SceneError::invalid(path, format!("glTF: {reason}"));
+    let (placed, loaded) = placements(path, data)?;
+    let meshes = loaded.meshes();
+    let mut flat = Triangles::default();
+    for (mesh, world) in &placed {
+        flat.read(&meshes[*mesh], world, &loaded.buffers, &bad)?;
+    }
+    Ok(flat.into_scene())
+}
+
+/// The scene with its shared meshes kept once: a mesh that nodes place more than once is a
+/// model ([`super::Model`], its triangles in the mesh's own frame), each placement an
+/// instance by the node's transform; a mesh placed once, or by a transform that is not an
+/// invertible affine map, is read into the world as [`parse`] reads it.
+pub fn parse_instanced(path: &str, data: &[u8]) -> Result<InstancedScene, SceneError> {
+    let bad = |reason: String| SceneError::invalid(path, format!("glTF: {reason}"));
+    let (placed, loaded) = placements(path, data)?;
+    let (meshes, buffers) = (loaded.meshes(), &loaded.buffers);
+    let mut uses: HashMap<usize, usize> = HashMap::new();
+    for (mesh, _) in &placed {
+        *uses.entry(*mesh).or_default() += 1;
+    }
+    let mut models: Vec<Model> = Vec::new();
+    let mut model_of: HashMap<usize, u32> = HashMap::new();
+    let mut world = Triangles::default();
+    let mut instances = Vec::new();
+    for &(index, ref m) in &placed {
+        let mesh = &meshes[index];
+        let affine = m.row(3) == glam::Vec4::W;
+        let transform = Affine3A::from_mat4(*m);
+        let instance = |model| Instance { model, transform };
+        if uses[&index] < 2 || !affine || instance(0).check().is_err() {
+            world.read(mesh, m, buffers, &bad)?;
+            continue;
+        }
+        let model = match model_of.get(&index) {
+            Some(&k) => k,
+            None => {
+                let mut own = Triangles::default();
+                own.read(mesh, &Mat4::IDENTITY, buffers, &bad)?;
+                models.push(Model {
+                    name: mesh
+                        .name()
+                        .map_or_else(|| format!("mesh{}", mesh.index()), str::to_string),
+                    scene: own.into_scene(),
+                    instances: Vec::new(),
+                });
+                let k = models.len() as u32 - 1;
+                model_of.insert(index, k);
+                k
+            }
+        };
+        instances.push(instance(model));
+    }
+    models.push(Model {
+        name: "world".into(),
+        scene: world.into_scene(),
+        instances,
+    });
+    let mut scene = InstancedScene { models };
+    let b = scene.bounds();
+    scene
+        .models
+        .last_mut()
+        .expect("the world")
+        .scene
+        .frame_camera_and_light_on(&b);
+    Ok(scene)
+}
+
+/// Every mesh the default scene's nodes place (or the first scene's, or every mesh when
+/// there is none), with its node's world transform, in visiting order; and the buffers.
+fn placements(path: &str, data: &[u8]) -> Result<(Vec<(usize, Mat4)>, Loaded), SceneError> {
     let bad = |reason: String| SceneError::invalid(path, format!("glTF: {reason}"));
     let doc = gltf::Gltf::from_slice_without_validation(data).map_err(|e| bad(e.to_string()))?;
     let json = doc.document.into_json();
@@ -36,7 +110,7 @@ pub fn parse(path: &str, data: &[u8]) -> Result<Scene, SceneError> {
         .buffers()
         .map(|b| buffer(path, &doc, &b).map_err(|r| bad(format!("buffer {}: {r}", b.index()))))
         .collect::<Result<Vec<_>, _>>()?;
-    let mut placed: Vec<(gltf::Mesh, Mat4)> = Vec::new();
+    let mut placed: Vec<(usize, Mat4)> = Vec::new();
     let scene = doc.default_scene().or_else(|| doc.scenes().next());
     match scene {
         Some(s) => {
@@ -53,20 +127,48 @@ pub fn parse(path: &str, data: &[u8]) -> Result<Scene, SceneError> {
                 }
                 let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
                 if let Some(m) = node.mesh() {
-                    placed.push((m, world));
+                    placed.push((m.index(), world));
                 }
                 let first = stack.len();
                 stack.extend(node.children().map(|c| (c, world, depth + 1)));
                 stack[first..].reverse();
             }
         }
-        None => placed.extend(doc.meshes().map(|m| (m, Mat4::IDENTITY))),
+        None => placed.extend(doc.meshes().map(|m| (m.index(), Mat4::IDENTITY))),
     }
-    let mut triangles: Vec<[Vec3; 3]> = Vec::new();
-    let mut runs: Vec<(u32, u32)> = Vec::new();
-    let mut materials: Vec<Material> = Vec::new();
-    let mut material_of: std::collections::HashMap<Option<usize>, u32> = Default::default();
-    for (mesh, world) in &placed {
+    Ok((placed, Loaded { doc, buffers }))
+}
+
+/// A document with its buffers read.
+struct Loaded {
+    doc: gltf::Gltf,
+    buffers: Vec<Vec<u8>>,
+}
+
+impl Loaded {
+    fn meshes(&self) -> Vec<gltf::Mesh<'_>> {
+        self.doc.meshes().collect()
+    }
+}
+
+/// Triangles read from placed meshes, with their materials by runs.
+#[derive(Default)]
+struct Triangles {
+    triangles: Vec<[Vec3; 3]>,
+    runs: Vec<(u32, u32)>,
+    materials: Vec<Material>,
+    material_of: std::collections::HashMap<Option<usize>, u32>,
+}
+
+impl Triangles {
+    /// Reads `mesh`'s triangle primitives through `world`.
+    fn read(
+        &mut self,
+        mesh: &gltf::Mesh,
+        world: &Mat4,
+        buffers: &[Vec<u8>],
+        bad: &dyn Fn(String) -> SceneError,
+    ) -> Result<(), SceneError> {
         for prim in mesh.primitives() {
             use gltf::mesh::Mode;
             let mode = prim.mode();
@@ -111,12 +213,13 @@ pub fn parse(path: &str, data: &[u8]) -> Result<Scene, SceneError> {
                     ))
                 })
             };
-            let first = triangles.len();
+            let first = self.triangles.len();
             let n = indices.len();
             match mode {
                 Mode::Triangles => {
                     for t in indices.chunks_exact(3) {
-                        triangles.push([vertex(t[0])?, vertex(t[1])?, vertex(t[2])?]);
+                        self.triangles
+                            .push([vertex(t[0])?, vertex(t[1])?, vertex(t[2])?]);
                     }
                 }
                 Mode::TriangleStrip => {
@@ -126,7 +229,7 @@ pub fn parse(path: &str, data: &[u8]) -> Result<Scene, SceneError> {
                         } else {
                             (k - 1, k - 2)
                         };
-                        triangles.push([
+                        self.triangles.push([
                             vertex(indices[a])?,
                             vertex(indices[b])?,
                             vertex(indices[k])?,
@@ -135,7 +238,7 @@ pub fn parse(path: &str, data: &[u8]) -> Result<Scene, SceneError> {
                 }
                 _ => {
                     for k in 2..n {
-                        triangles.push([
+                        self.triangles.push([
                             vertex(indices[0])?,
                             vertex(indices[k - 1])?,
                             vertex(indices[k])?,
@@ -143,28 +246,32 @@ pub fn parse(path: &str, data: &[u8]) -> Result<Scene, SceneError> {
                     }
                 }
             }
-            if triangles.len() > first {
+            if self.triangles.len() > first {
                 let m = prim.material();
-                let next = materials.len() as u32;
-                let id = *material_of.entry(m.index()).or_insert_with(|| {
-                    materials.push(material(&m));
+                let next = self.materials.len() as u32;
+                let id = *self.material_of.entry(m.index()).or_insert_with(|| {
+                    self.materials.push(material(&m));
                     next
                 });
-                if runs.last().is_none_or(|r| r.1 != id) {
-                    runs.push((first as u32, id));
+                if self.runs.last().is_none_or(|r| r.1 != id) {
+                    self.runs.push((first as u32, id));
                 }
             }
-            if triangles.len() >= u32::MAX as usize - 1 {
+            if self.triangles.len() >= u32::MAX as usize - 1 {
                 return Err(bad("more than 2^32-2 triangles".into()));
             }
         }
+        Ok(())
     }
-    let mut scene = Scene::from_triangles(triangles);
-    if !materials.is_empty() {
-        scene.materials = materials;
-        scene.material_runs = runs;
+
+    fn into_scene(self) -> Scene {
+        let mut scene = Scene::from_triangles(self.triangles);
+        if !self.materials.is_empty() {
+            scene.materials = self.materials;
+            scene.material_runs = self.runs;
+        }
+        scene
     }
-    Ok(scene)
 }
 
 /// Refuses a primitive attribute naming an accessor that does not exist. The `gltf` crate's

@@ -187,7 +187,7 @@ impl Scene {
     /// Parses scene data; `name`'s extension picks the format, as in [`Scene::load`]. An NFF
     /// file's instances come flattened ([`Scene::open`]).
     pub fn from_bytes(name: &str, raw: &[u8]) -> Result<Scene, SceneError> {
-        let mut scene = parse_any(name, raw)?;
+        let mut scene = parse_any(name, raw, false)?;
         if scene.models.len() == 1 {
             return Ok(scene.models.pop().expect("one model").scene);
         }
@@ -286,9 +286,16 @@ impl InstancedScene {
             Some(Builtin::Instanced(scene)) => Ok(scene),
             None => {
                 let raw = std::fs::read(name).map_err(|e| SceneError::io(name, e))?;
-                parse_any(name, &raw)
+                InstancedScene::from_bytes(name, &raw)
             }
         }
+    }
+
+    /// Parses scene data with its instances kept, `name`'s extension picking the format: an
+    /// NFF file's models and instances, a glTF file's meshes placed by several nodes
+    /// (each a model, each placement an instance); any other as a world of one model.
+    pub fn from_bytes(name: &str, raw: &[u8]) -> Result<InstancedScene, SceneError> {
+        parse_any(name, raw, true)
     }
 
     /// Whether any model places another: a world of one model is a flat scene.
@@ -298,8 +305,16 @@ impl InstancedScene {
 }
 
 /// Parses scene data of any format, `name`'s extension picking it: NFF with its models and
-/// instances, the others as a world of one model.
-fn parse_any(name: &str, raw: &[u8]) -> Result<InstancedScene, SceneError> {
+/// instances, glTF with its shared meshes as models when `instanced` (else flattened in file
+/// order), the others as a world of one model.
+fn parse_any(name: &str, raw: &[u8], instanced: bool) -> Result<InstancedScene, SceneError> {
+    /// Every model's scene as the loaders hand scenes out ([`Scene::with_tiny_coordinates_zeroed`]).
+    fn zeroed(mut scene: InstancedScene) -> InstancedScene {
+        for m in &mut scene.models {
+            m.scene = std::mem::take(&mut m.scene).with_tiny_coordinates_zeroed();
+        }
+        scene
+    }
     {
         let unzipped;
         let data = if raw.starts_with(&[0x1f, 0x8b]) {
@@ -322,11 +337,7 @@ fn parse_any(name: &str, raw: &[u8]) -> Result<InstancedScene, SceneError> {
             data
         };
         if stem.ends_with(".nff") {
-            let mut scene = nff::parse_instanced(&name, data)?;
-            for m in &mut scene.models {
-                m.scene = std::mem::take(&mut m.scene).with_tiny_coordinates_zeroed();
-            }
-            return Ok(scene);
+            return nff::parse_instanced(&name, data).map(zeroed);
         }
         let parsed = if stem.ends_with(".ply") {
             ply::parse(&name, data)
@@ -335,6 +346,9 @@ fn parse_any(name: &str, raw: &[u8]) -> Result<InstancedScene, SceneError> {
         } else if stem.ends_with(".stl") {
             stl::parse(&name, data)
         } else if stem.ends_with(".gltf") || stem.ends_with(".glb") {
+            if instanced {
+                return gltf::parse_instanced(&name, data).map(zeroed);
+            }
             gltf::parse(&name, data)
         } else {
             Err(SceneError::UnknownFormat { path: name })
@@ -394,7 +408,12 @@ impl Scene {
     }
 
     fn frame_camera_and_light(&mut self) {
-        let b = self.bounds();
+        self.frame_camera_and_light_on(&self.bounds());
+    }
+
+    /// The framing camera of box `b` ([`Camera::framing`]), with one light above the eye.
+    pub(crate) fn frame_camera_and_light_on(&mut self, b: &Aabb) {
+        let b = *b;
         self.camera = Camera::framing(&if b.is_empty() {
             Aabb::new(Vec3::ZERO, Vec3::ONE)
         } else {
