@@ -524,3 +524,29 @@ fn a_render_job_renders_instances_as_their_copies() {
     assert!(differ * 200 <= 96 * 96, "{differ} pixels differ");
     assert!(want.counts.eye_hits > 1000, "{:?}", want.counts);
 }
+
+/// Memory by the structures' own accounting: a town's models are built once, so its bytes
+/// grow with its instances, not with its flattened primitives (item 6 of the scale issue).
+#[test]
+fn a_world_s_memory_grows_with_its_instances_not_its_copies() {
+    for spec in ["hug", "bvh"] {
+        let small = World::build(InstancedScene::open("builtin:town:2").unwrap(), spec).unwrap();
+        let large = World::build(InstancedScene::open("builtin:town:8").unwrap(), spec).unwrap();
+        assert_eq!(large.instances() - small.instances(), 60);
+        // 16 times the towers; the ground (two triangles) once.
+        assert_eq!(
+            large.flattened_primitives(),
+            16 * small.flattened_primitives() - 30
+        );
+        let per_instance = (large.memory_bytes() - small.memory_bytes()) as f64 / 60.0;
+        assert!(
+            per_instance < 1024.0,
+            "{spec}: {per_instance} bytes an added tower"
+        );
+        let per_flat = large.memory_bytes() as f64 / large.flattened_primitives() as f64;
+        assert!(
+            per_flat < 0.1,
+            "{spec}: {per_flat} bytes a flattened primitive"
+        );
+    }
+}

@@ -136,11 +136,17 @@ pub fn instanced(kind: &str, size: u32, seed: u64) -> Option<super::InstancedSce
                 })
                 .collect();
             let height = TOWER_KITCHENS.div_ceil(2) as f32 * 3.4;
+            // From above a corner, down the diagonal: near towers in full, the far ones
+            // to the horizon.
             town.scene.camera = Camera {
-                from: Vec3::new(-0.25 * w - 40.0, 1.6 * height + 0.3 * w, d * 1.25 + 40.0),
-                at: Vec3::new(w * 0.55, height * 0.3, d * 0.45),
+                from: Vec3::new(
+                    -0.04 * w - 30.0,
+                    1.5 * height + 0.03 * w,
+                    d + 0.04 * w + 30.0,
+                ),
+                at: Vec3::new(0.5 * w, 0.0, 0.35 * d),
                 up: Vec3::Y,
-                fov_deg: 50.0,
+                fov_deg: 55.0,
                 width: 1024,
                 height: 1024,
             };
