@@ -97,6 +97,9 @@ impl Primitives for ModelPrimitives<'_> {
             return self.scene.shape(i).intersect(ray, tmin, tmax);
         };
         let p = &self.placed[j];
+        // A structure's leaf or cell tests every instance it holds: the box first, as it
+        // would test a node's, before the ray is taken into the frame and the model walked.
+        p.bounds.intersect(ray, tmin, tmax)?;
         let m = &self.models[p.model as usize];
         let local = p.local_ray(&ray.ray, tmin, tmax);
         m.accel
@@ -205,11 +208,18 @@ impl World {
                     let child = &models[inst.model as usize];
                     first_flat.push(flat_len);
                     flat_len = flat_len.saturating_add(child.flat_len);
+                    // The corners are transformed in single precision: the box is widened
+                    // by 2⁻²⁰ of its magnitude, far more than their rounding.
+                    let bounds = transformed_box(&inst.transform, &child.bounds);
                     Placed {
                         model: inst.model,
                         to_world: inst.transform,
                         to_local: inst.transform.inverse(),
-                        bounds: transformed_box(&inst.transform, &child.bounds),
+                        bounds: if bounds.is_empty() {
+                            bounds
+                        } else {
+                            bounds.expand(bounds.magnitude() * (1.0 / (1 << 20) as f32))
+                        },
                     }
                 })
                 .collect();
