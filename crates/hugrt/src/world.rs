@@ -208,18 +208,11 @@ impl World {
                     let child = &models[inst.model as usize];
                     first_flat.push(flat_len);
                     flat_len = flat_len.saturating_add(child.flat_len);
-                    // The corners are transformed in single precision: the box is widened
-                    // by 2⁻²⁰ of its magnitude, far more than their rounding.
-                    let bounds = transformed_box(&inst.transform, &child.bounds);
                     Placed {
                         model: inst.model,
                         to_world: inst.transform,
                         to_local: inst.transform.inverse(),
-                        bounds: if bounds.is_empty() {
-                            bounds
-                        } else {
-                            bounds.expand(bounds.magnitude() * (1.0 / (1 << 20) as f32))
-                        },
+                        bounds: transformed_box(&inst.transform, &child.bounds),
                     }
                 })
                 .collect();
