@@ -39,13 +39,20 @@ impl Placed {
     /// The ray in the placed model's frame, over `[tmin, tmax]`: the same `t` on both.
     #[inline]
     fn local_ray(&self, ray: &Ray, tmin: f32, tmax: f32) -> Ray {
-        Ray::new(
-            self.to_local.transform_point3(ray.origin),
-            self.to_local.transform_vector3(ray.dir),
-            tmin,
-            tmax,
-        )
+        ray_in(&self.to_local, ray, tmin, tmax)
     }
+}
+
+/// `ray` mapped by `to_local` over `[tmin, tmax]`, its direction not normalised, so that `t`
+/// is the same on both.
+#[inline]
+fn ray_in(to_local: &Affine3A, ray: &Ray, tmin: f32, tmax: f32) -> Ray {
+    Ray::new(
+        to_local.transform_point3(ray.origin),
+        to_local.transform_vector3(ray.dir),
+        tmin,
+        tmax,
+    )
 }
 
 /// One model built: its scene, its instances, its structure.
@@ -381,13 +388,7 @@ impl World {
     /// the normal taken to the world's).
     pub fn details(&self, hit: &InstanceHit, ray: &Ray) -> HitDetails {
         let m = &self.models[hit.model as usize];
-        let local = hit.to_world.inverse();
-        let local_ray = Ray::new(
-            local.transform_point3(ray.origin),
-            local.transform_vector3(ray.dir),
-            ray.tmin,
-            ray.tmax,
-        );
+        let local_ray = ray_in(&hit.to_world.inverse(), ray, ray.tmin, ray.tmax);
         let d = Hit {
             t: hit.t,
             prim: hit.prim,
@@ -403,13 +404,7 @@ impl World {
     /// The hit's point (on the world ray), normals in the world's frame, and material.
     pub fn surface(&self, hit: &InstanceHit, ray: &Ray) -> (SurfacePoint, &Material) {
         let m = &self.models[hit.model as usize];
-        let local = hit.to_world.inverse();
-        let local_ray = Ray::new(
-            local.transform_point3(ray.origin),
-            local.transform_vector3(ray.dir),
-            ray.tmin,
-            ray.tmax,
-        );
+        let local_ray = ray_in(&hit.to_world.inverse(), ray, ray.tmin, ray.tmax);
         let shape = m.scene.shape(hit.prim as usize);
         let sp = shape.surface(&PreparedRay::new(&local_ray), hit.t, &m.scene.patch_normals);
         let to_world = |n| world_normal(&hit.to_world, n, shape);
