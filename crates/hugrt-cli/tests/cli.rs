@@ -348,6 +348,7 @@ fn stats_json_reports_scene_and_structure() {
     assert!(j["structure"]["bytes_per_primitive"].as_f64().unwrap() > 0.0);
     // The default structure is the HUG, with SCG97 §3's statistics per level.
     assert_eq!(j["accel"], "hug");
+    assert!(j["structure"]["references_per_object"].as_f64().unwrap() >= 1.0);
     assert_eq!(j["levels"][0]["pct_vol"], 100.0);
     let total: f64 = (0..j["levels"].as_array().unwrap().len())
         .map(|l| j["levels"][l]["pct_obj"].as_f64().unwrap())

@@ -442,6 +442,12 @@ fn malformed_meshes_are_errors_not_panics() {
             ply_ascii(&verts, &[vec![0, 1]]),
             "t.ply: PLY: face 0: 2 vertices",
         ),
+        // Faces before the vertices: an index is checked against what a u32 holds.
+        (
+            "t.ply",
+            b"ply\nformat ascii 1.0\nelement face 1\nproperty list uchar int vertex_indices\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nend_header\n3 0 1 -1\n0 0 0\n1 0 0\n0 1 0\n".to_vec(),
+            "t.ply: PLY: face 0: vertex index -1 out of range (the faces come before the vertices",
+        ),
         (
             "t.obj",
             b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n".to_vec(),

@@ -108,11 +108,13 @@ pub fn parse(path: &str, data: &[u8]) -> Result<Scene, SceneError> {
                 for_each_element(path, &mut reader, def, &header, |f, face: Face| {
                     let idx = &face.0;
                     if let Some(i) = idx.iter().find(|&&i| i < 0 || i as u64 >= count as u64) {
+                        let range = match &points {
+                            Some(_) => format!("{count} vertices"),
+                            None => "the faces come before the vertices, and indices must be below 2^32 - 1".into(),
+                        };
                         return Err(SceneError::invalid(
                             path,
-                            format!(
-                                "PLY: face {f}: vertex index {i} out of range ({count} vertices)"
-                            ),
+                            format!("PLY: face {f}: vertex index {i} out of range ({range})"),
                         ));
                     }
                     if idx.len() < 3 {

@@ -438,6 +438,7 @@ impl Accel for Hug {
     fn stats(&self) -> StructureStats {
         let levels = self.grids.level_stats(LevelView::Level);
         let depths = self.grids.level_stats(LevelView::Depth);
+        let census = CellCensus::of_levels(&levels);
         let mut s = StructureStats::default();
         s.push("filter_levels", self.report.levels as f64);
         s.push("clusters_found", self.report.clusters as f64);
@@ -450,6 +451,11 @@ impl Accel for Hug {
         s.push("depth", depths.len() as f64);
         s.push("cells", self.grids.cell_count() as f64);
         s.push("references", self.grids.reference_count() as f64);
+        // Object references only, as the grid's: the references above count sub-grids too.
+        s.push(
+            "references_per_object",
+            census.object_refs as f64 / self.prims.max(1) as f64,
+        );
         s.push("sum_pct_vol", levels.iter().map(|l| l.pct_vol).sum::<f64>());
         s.push("prune", self.prune.stat_value());
         s.push_memory(
@@ -457,7 +463,7 @@ impl Accel for Hug {
             self.memory_bytes(),
             self.prims,
         );
-        s.census = CellCensus::of_levels(&levels);
+        s.census = census;
         s.levels = levels;
         s.depths = depths;
         s
