@@ -527,28 +527,30 @@ impl TraceArgs {
         };
         hugrt::batch::check_format(query, hit_format).context("--hit-format full")?;
         pool(threads)?.install(|| {
-            let mut instanced = InstancedScene::open(&scene)?;
+            let opened = InstancedScene::open(&scene)?;
             let bytes =
                 std::fs::read(&rays).with_context(|| format!("reading {}", rays.display()))?;
             let ray_list =
                 hugrt::batch::decode_rays(&bytes).with_context(|| rays.display().to_string())?;
-            if instanced.has_instances() {
-                if counters {
-                    bail!("--counters: not offered through instances");
+            let scene = match opened.into_flat() {
+                Ok(scene) => scene,
+                Err(instanced) => {
+                    if counters {
+                        bail!("--counters: not offered through instances");
+                    }
+                    let t = std::time::Instant::now();
+                    let world = hugrt::world::World::build(instanced, &accel)?;
+                    let build_s = t.elapsed().as_secs_f64();
+                    let traced = hugrt::batch::trace_world_timed(
+                        &world,
+                        &ray_list,
+                        query,
+                        hit_format,
+                        repeat as usize,
+                    )?;
+                    return write_traced(&hits, &traced, build_s, ray_list.len());
                 }
-                let t = std::time::Instant::now();
-                let world = hugrt::world::World::build(instanced, &accel)?;
-                let build_s = t.elapsed().as_secs_f64();
-                let traced = hugrt::batch::trace_world_timed(
-                    &world,
-                    &ray_list,
-                    query,
-                    hit_format,
-                    repeat as usize,
-                )?;
-                return write_traced(&hits, &traced, build_s, ray_list.len());
-            }
-            let scene = instanced.models.pop().expect("a world").scene;
+            };
             let (acc, build_s) = build(&scene, &accel)?;
             let traced = hugrt::batch::trace_timed(
                 &scene,

@@ -435,28 +435,41 @@ pub fn trace_world_timed(
             world.flattened_primitives()
         )));
     }
-    let mut times = Vec::new();
-    let mut result: Vec<Option<InstanceHit>> = vec![None; rays.len()];
-    for _ in 0..repeat.max(1) {
-        let t = std::time::Instant::now();
-        result
-            .par_iter_mut()
-            .zip(rays.par_iter())
-            .with_min_len(64)
-            .for_each(|(o, r)| {
-                *o = if query == Query::Any {
-                    world.any_hit(r, &mut NoCounters).then(|| InstanceHit {
-                        t: 1.0,
-                        flat_prim: 0,
-                        ..InstanceHit::none()
-                    })
-                } else {
-                    world.closest_hit(r, &mut NoCounters)
-                };
-            });
-        times.push(t.elapsed().as_secs_f64());
+    // Every ray answered `repeat` times (at least once) into one buffer, each run timed.
+    fn runs<T: Copy + Send>(
+        rays: &[Ray],
+        repeat: usize,
+        answer: impl Fn(&Ray) -> Option<T> + Sync,
+    ) -> (Vec<Option<T>>, Vec<f64>) {
+        let mut out = vec![None; rays.len()];
+        let times = (0..repeat.max(1))
+            .map(|_| {
+                let t = std::time::Instant::now();
+                out.par_iter_mut()
+                    .zip(rays.par_iter())
+                    .with_min_len(64)
+                    .for_each(|(o, r)| *o = answer(r));
+                t.elapsed().as_secs_f64()
+            })
+            .collect();
+        (out, times)
     }
-    let hits = result.iter().filter(|h| h.is_some()).count();
+    if query == Query::Any {
+        // As `trace` writes any-hit answers: `t = 1`, index 0.
+        let blocked = |r: &Ray| {
+            world
+                .any_hit(r, &mut NoCounters)
+                .then_some(Hit { t: 1.0, prim: 0 })
+        };
+        let (result, times) = runs(rays, repeat, blocked);
+        return Ok(Traced {
+            bytes: encode_hits(&result),
+            hits: result.iter().flatten().count(),
+            timing: crate::bench::Timing::from_secs(times),
+        });
+    }
+    let (result, times) = runs(rays, repeat, |r| world.closest_hit(r, &mut NoCounters));
+    let hits = result.iter().flatten().count();
     let flat = |h: &InstanceHit| Hit {
         t: h.t,
         prim: h.flat_prim as u32,

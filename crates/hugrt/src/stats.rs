@@ -77,21 +77,11 @@ impl StatsReport {
     /// world's counts ahead (`models`, `instances`, `flattened_primitives`, ...).
     pub fn measure(name: &str, spec: &str) -> Result<StatsReport, crate::Error> {
         crate::accel::AnyAccel::check(spec).map_err(|e| crate::Error::spec(spec, e))?;
-        let mut instanced = crate::scene::InstancedScene::open(name)?;
-        if instanced.has_instances() {
-            let t = std::time::Instant::now();
-            let world = crate::world::World::build(instanced, spec)?;
-            let build_seconds = t.elapsed().as_secs_f64();
-            return Ok(StatsReport {
-                scene: name.to_string(),
-                accel: spec.to_string(),
-                scene_stats: scene_stats(&world.top().1),
-                scene_memory_bytes: world.scene_memory_bytes(),
-                build_seconds,
-                structure: world.stats(),
-            });
-        }
-        let scene = instanced.models.pop().expect("a world").scene;
+        let instanced = crate::scene::InstancedScene::open(name)?;
+        let scene = match instanced.into_flat() {
+            Ok(scene) => scene,
+            Err(instanced) => return Self::measure_world(name, spec, instanced),
+        };
         let scene_stats = scene_stats(&scene);
         let t = std::time::Instant::now();
         let accel =
@@ -104,6 +94,27 @@ impl StatsReport {
             scene_memory_bytes: scene.memory_bytes(),
             build_seconds,
             structure: accel.stats(),
+        })
+    }
+}
+
+impl StatsReport {
+    /// [`StatsReport::measure`] of a scene of instances.
+    fn measure_world(
+        name: &str,
+        spec: &str,
+        scene: crate::scene::InstancedScene,
+    ) -> Result<StatsReport, crate::Error> {
+        let t = std::time::Instant::now();
+        let world = crate::world::World::build(scene, spec)?;
+        let build_seconds = t.elapsed().as_secs_f64();
+        Ok(StatsReport {
+            scene: name.to_string(),
+            accel: spec.to_string(),
+            scene_stats: scene_stats(&world.top().1),
+            scene_memory_bytes: world.scene_memory_bytes(),
+            build_seconds,
+            structure: world.stats(),
         })
     }
 }

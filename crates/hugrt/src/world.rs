@@ -176,24 +176,6 @@ pub struct InstanceHit {
     pub to_world: Affine3A,
 }
 
-impl InstanceHit {
-    /// A hit of nothing in particular: the world's own primitive 0 at `t = 0`, for filling
-    /// answers that carry no hit's details (any-hit queries).
-    pub fn none() -> InstanceHit {
-        InstanceHit {
-            t: 0.0,
-            model: 0,
-            prim: 0,
-            instances: InstancePath {
-                len: 0,
-                ids: [0; MAX_NESTING],
-            },
-            flat_prim: 0,
-            to_world: Affine3A::IDENTITY,
-        }
-    }
-}
-
 /// An instanced scene with every model's structure built.
 pub struct World {
     models: Vec<BuiltModel>,
@@ -204,28 +186,26 @@ impl World {
     pub fn build(scene: InstancedScene, spec: &str) -> Result<World, crate::Error> {
         scene.check()?;
         AnyAccel::check(spec).map_err(|e| crate::Error::spec(spec, e))?;
+        let boxes = scene.model_bounds();
+        let counts = scene.flattened_counts();
         let mut models: Vec<BuiltModel> = Vec::with_capacity(scene.models.len());
-        for model in scene.models {
+        for (model, bounds) in scene.models.into_iter().zip(boxes.iter().copied()) {
             let mut first_flat = Vec::with_capacity(model.instances.len());
-            let mut flat_len = model.scene.len() as u64;
+            let mut next = model.scene.len() as u64;
             let placed: Vec<Placed> = model
                 .instances
                 .iter()
                 .map(|inst| {
-                    let child = &models[inst.model as usize];
-                    first_flat.push(flat_len);
-                    flat_len = flat_len.saturating_add(child.flat_len);
+                    first_flat.push(next);
+                    next = next.saturating_add(counts[inst.model as usize]);
                     Placed {
                         model: inst.model,
                         to_world: inst.transform,
                         to_local: inst.transform.inverse(),
-                        bounds: transformed_box(&inst.transform, &child.bounds),
+                        bounds: transformed_box(&inst.transform, &boxes[inst.model as usize]),
                     }
                 })
                 .collect();
-            let bounds = placed
-                .iter()
-                .fold(model.scene.bounds(), |b, p| b.union(&p.bounds));
             let prims = ModelPrimitives {
                 models: &models,
                 scene: &model.scene,
@@ -239,7 +219,7 @@ impl World {
                 accel,
                 bounds,
                 first_flat,
-                flat_len,
+                flat_len: next,
             });
         }
         Ok(World { models })

@@ -435,6 +435,29 @@ fn instanced_nff_reads_back_what_was_written() {
     // Asked for flat, the same file comes flattened into copies.
     let flat = Scene::load(&path).unwrap();
     assert_eq!(flat.len() as u64, scene.flattened_counts()[1]);
+    // Names that the format would read as one are written apart.
+    let place = |model| Instance {
+        model,
+        transform: Affine3A::IDENTITY,
+    };
+    let clash = InstancedScene {
+        models: vec![
+            model("a b", triangle_soup(1, 2), Vec::new()),
+            model("a_b", triangle_soup(2, 2), Vec::new()),
+            model("", triangle_soup(3, 2), Vec::new()),
+            model(
+                "world",
+                Scene::default(),
+                vec![place(0), place(1), place(2)],
+            ),
+        ],
+    };
+    let mut bytes = Vec::new();
+    hugrt::scene::write::write_instanced_nff(&clash, &mut bytes).unwrap();
+    std::fs::write(&path, &bytes).unwrap();
+    let back = InstancedScene::open(path.to_str().unwrap()).unwrap();
+    assert_eq!(back.models.len(), 4);
+    assert_eq!(back.models[3].instances, clash.models[3].instances);
     std::fs::remove_file(&path).ok();
 }
 

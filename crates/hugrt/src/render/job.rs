@@ -79,11 +79,10 @@ impl RenderJob {
     ) -> Result<(Rendered, RenderReport), Error> {
         self.check()?;
         let t = Instant::now();
-        let mut instanced = InstancedScene::open(&self.scene)?;
-        if instanced.has_instances() {
-            return self.run_instanced(instanced, t, progress);
-        }
-        let mut scene = instanced.models.pop().expect("a world").scene;
+        let mut scene = match InstancedScene::open(&self.scene)?.into_flat() {
+            Ok(scene) => scene,
+            Err(instanced) => return self.run_instanced(instanced, t, progress),
+        };
         if scene.is_empty() && !self.allow_empty {
             return Err(Error::Empty(self.scene.clone()));
         }

@@ -138,6 +138,13 @@ impl InstancedScene {
 
     /// The world's box: every model's own box and its instances' boxes, transformed.
     pub fn bounds(&self) -> Aabb {
+        self.model_bounds().last().copied().unwrap_or(Aabb::EMPTY)
+    }
+
+    /// Each model's box: its own primitives' and its instances' boxes, transformed (an
+    /// instance of a model not before it, which [`InstancedScene::check`] refuses, adds
+    /// nothing).
+    pub fn model_bounds(&self) -> Vec<Aabb> {
         let mut boxes: Vec<Aabb> = Vec::with_capacity(self.models.len());
         for m in &self.models {
             let own = m.scene.bounds();
@@ -150,7 +157,21 @@ impl InstancedScene {
                     }),
             );
         }
-        boxes.last().copied().unwrap_or(Aabb::EMPTY)
+        boxes
+    }
+
+    /// The world's scene when the world places nothing (the flat scene it is: models it
+    /// does not place are left out), else the scene of instances itself, given back.
+    pub fn into_flat(mut self) -> Result<Scene, InstancedScene> {
+        if self.has_instances() {
+            return Err(self);
+        }
+        Ok(self.models.pop().map(|m| m.scene).unwrap_or_default())
+    }
+
+    /// Whether the world places any model: otherwise it is a flat scene.
+    pub fn has_instances(&self) -> bool {
+        self.world().is_some_and(|w| !w.instances.is_empty())
     }
 
     /// Primitives of each model with its copies flattened (saturating): the world's is the

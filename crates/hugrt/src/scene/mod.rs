@@ -180,18 +180,14 @@ impl Scene {
         match Builtin::parse(name)? {
             None => Scene::load(name),
             Some(Builtin::Flat(scene)) => Ok(scene),
-            Some(Builtin::Instanced(scene)) => flatten_for(name, &scene),
+            Some(Builtin::Instanced(scene)) => flatten_for(name, scene),
         }
     }
 
     /// Parses scene data; `name`'s extension picks the format, as in [`Scene::load`]. An NFF
     /// file's instances come flattened ([`Scene::open`]).
     pub fn from_bytes(name: &str, raw: &[u8]) -> Result<Scene, SceneError> {
-        let mut scene = parse_any(name, raw, false)?;
-        if scene.models.len() == 1 {
-            return Ok(scene.models.pop().expect("one model").scene);
-        }
-        flatten_for(name, &scene)
+        flatten_for(name, parse_any(name, raw, false)?)
     }
 }
 
@@ -296,11 +292,6 @@ impl InstancedScene {
     /// (each a model, each placement an instance); any other as a world of one model.
     pub fn from_bytes(name: &str, raw: &[u8]) -> Result<InstancedScene, SceneError> {
         parse_any(name, raw, true)
-    }
-
-    /// Whether any model places another: a world of one model is a flat scene.
-    pub fn has_instances(&self) -> bool {
-        self.models.iter().any(|m| !m.instances.is_empty())
     }
 }
 
@@ -549,7 +540,11 @@ fn gunzip(raw: &[u8]) -> std::io::Result<Vec<u8>> {
 /// An instanced scene as a flat one, for the readers whose callers want a [`Scene`]: its
 /// copies flattened ([`InstancedScene::flattened`]), when they number at most
 /// [`MAX_FLATTENED`]; [`InstancedScene::open`] keeps the instances.
-pub(crate) fn flatten_for(name: &str, scene: &InstancedScene) -> Result<Scene, SceneError> {
+pub(crate) fn flatten_for(name: &str, scene: InstancedScene) -> Result<Scene, SceneError> {
+    let scene = match scene.into_flat() {
+        Ok(flat) => return Ok(flat),
+        Err(instanced) => instanced,
+    };
     scene
         .check()
         .map_err(|e| SceneError::invalid(name, e.to_string()))?;

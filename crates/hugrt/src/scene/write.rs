@@ -119,24 +119,23 @@ pub fn write_instanced_nff(scene: &InstancedScene, out: &mut impl Write) -> io::
     let Some((world, models)) = scene.models.split_last() else {
         return Ok(());
     };
-    // Names as the format reads them: one word each, and each its own.
-    let names: Vec<String> = models
-        .iter()
-        .enumerate()
-        .map(|(k, m)| {
-            let word: String = m
-                .name
-                .chars()
-                .map(|c| if c.is_whitespace() { '_' } else { c })
-                .collect();
-            let taken = models[..k].iter().any(|o| o.name == m.name);
-            match word.as_str() {
-                "" => format!("model{k}"),
-                _ if taken => format!("{word}{k}"),
-                _ => word,
-            }
-        })
-        .collect();
+    // Names as the format reads them: one word each, and each its own (a name already
+    // written gets the model's number after it, until it is free).
+    let mut names: Vec<String> = Vec::with_capacity(models.len());
+    for (k, m) in models.iter().enumerate() {
+        let mut word: String = m
+            .name
+            .chars()
+            .map(|c| if c.is_whitespace() { '_' } else { c })
+            .collect();
+        if word.is_empty() {
+            word = "model".into();
+        }
+        while names.contains(&word) {
+            word = format!("{word}{k}");
+        }
+        names.push(word);
+    }
     let instances = |list: &[super::Instance], out: &mut dyn Write| -> io::Result<()> {
         for i in list {
             let (m, t) = (i.transform.matrix3, i.transform.translation);
