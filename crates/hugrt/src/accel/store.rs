@@ -87,6 +87,20 @@ pub(crate) fn finite(b: &Aabb) -> bool {
     !b.is_empty() && b.min.is_finite() && b.max.is_finite()
 }
 
+/// The shared vertices of `prims` when every primitive is a triangle of that indexed mesh,
+/// its indices in range: what an indexed store needs.
+pub(crate) fn indexed_mesh<P: Primitives>(prims: &P) -> Option<std::sync::Arc<Vec<Vec3>>> {
+    let v = prims.shared_vertices()?;
+    (0..prims.len())
+        .into_par_iter()
+        .all(|i| {
+            prims
+                .mesh_triangle(i)
+                .is_some_and(|t| t.iter().all(|&k| (k as usize) < v.len()))
+        })
+        .then_some(v)
+}
+
 /// Spreads the low 10 bits of `x` to every third bit.
 fn spread3(x: u32) -> u32 {
     let mut x = x & 0x3ff;
@@ -210,6 +224,37 @@ impl PrimStore {
             cone_start: cone_start as u32,
             opaque_start: opaque_start as u32,
             ids: keys.par_iter().map(|&k| id(k) as u32).collect(),
+        }
+    }
+
+    /// An indexed store of the primitives `order` names, in that order, each an entry: for a
+    /// structure whose leaves are ranges of entries (the bvh's `store=index`). `vertices` are
+    /// [`indexed_mesh`]'s, which vouched for every primitive.
+    pub(crate) fn indexed_in_order<P: Primitives>(
+        prims: &P,
+        vertices: std::sync::Arc<Vec<Vec3>>,
+        order: Vec<u32>,
+    ) -> PrimStore {
+        let n = order.len() as u32;
+        let tri_indices = order
+            .par_iter()
+            .map(|&i| {
+                prims
+                    .mesh_triangle(i as usize)
+                    .expect("indexed_mesh vouched for every primitive")
+            })
+            .collect();
+        PrimStore {
+            reach: Reach::of(prims),
+            tris: Vec::new(),
+            tri_indices,
+            vertices: Some(vertices),
+            spheres: Vec::new(),
+            cones: Vec::new(),
+            sphere_start: n,
+            cone_start: n,
+            opaque_start: n,
+            ids: order,
         }
     }
 

@@ -79,6 +79,9 @@ pub fn specs() -> Vec<String> {
             "hug:store=index,filter=levels,min_cluster=1,loose=1e30,pca=true",
             "grid:store=index,simd=false,density=8",
             "hug:store=index,simd=false",
+            "bvh:store=index",
+            "bvh:store=index,simd=false,leaf=16,bins=2",
+            "bvh:store=index,leaf=1,traversal=0",
         ]
         .map(String::from),
     );

@@ -29,11 +29,9 @@ pub(super) struct Size {
 }
 
 impl BuildNode {
-    /// A leaf of `items`, the `first`-th and on of the whole list, which it sorts by store
-    /// entry: triangles first (other kinds go in the last lanes), each kind in space order.
-    /// Sorted here, where the work is shared between threads, rather than in [`flatten`].
-    pub(super) fn leaf(items: &mut [Item], bounds: Aabb, first: usize) -> Self {
-        items.sort_unstable_by_key(Item::slot);
+    /// A leaf of `items`, the `first`-th and on of the whole list, sorted by store entry
+    /// ([`Builder::decide`]).
+    pub(super) fn leaf(items: &[Item], bounds: Aabb, first: usize) -> Self {
         BuildNode::Leaf {
             bounds,
             start: first,
@@ -227,33 +225,11 @@ impl Builder {
         depth: usize,
         ext: Extents,
     ) -> BuildNode {
-        let (bounds, centres) = ext;
+        let bounds = ext.0;
+        let Some((mid, left_ext, right_ext)) = self.decide(items, depth, &ext) else {
+            return BuildNode::leaf(items, bounds, first);
+        };
         let n = items.len();
-        let leaf = |items: &mut [Item]| BuildNode::leaf(items, bounds, first);
-        // No split costs less than its traversal step: where that alone is as dear as the
-        // leaf (four items or fewer at the default costs), the SAH is not asked (same tree).
-        if n <= 1 || n <= self.leaf_size && blocks(n as u32) <= self.traversal_cost {
-            return leaf(items);
-        }
-        let plane = if depth < MEDIAN_DEPTH {
-            self.sah_split(items, &bounds, &centres)
-        } else {
-            None
-        };
-        // A leaf when it is small enough and no plane costs less than testing everything
-        // (SAH: a test costs 1, a traversal step `traversal_cost`).
-        let split = match plane {
-            Some((cost, _, _)) if n <= self.leaf_size && cost >= blocks(n as u32) => {
-                return leaf(items);
-            }
-            None if n <= self.leaf_size => return leaf(items),
-            Some((_, axis, position)) => partition(items, axis, position),
-            None => None,
-        };
-        let (mid, left_ext, right_ext) = split.unwrap_or_else(|| {
-            let mid = median(items, &centres);
-            (mid, extents(&items[..mid]), extents(&items[mid..]))
-        });
         let (left, right) = items.split_at_mut(mid);
         let (l, r) = if n > PARALLEL_ITEMS {
             rayon::join(
@@ -267,6 +243,48 @@ impl Builder {
             )
         };
         BuildNode::inner(bounds, l, r)
+    }
+
+    /// What becomes of a node of `items` at binary depth `depth`, whose [`Extents`] are
+    /// `ext`: `None` for a leaf, whose items it sorts by store entry (triangles first, other
+    /// kinds in the last lanes, each kind in space order); otherwise the cut, the items
+    /// partitioned: how many go left and the extents of both sides.
+    pub(super) fn decide(
+        &self,
+        items: &mut [Item],
+        depth: usize,
+        ext: &Extents,
+    ) -> Option<(usize, Extents, Extents)> {
+        let (bounds, centres) = ext;
+        let n = items.len();
+        let leaf = |items: &mut [Item]| {
+            items.sort_unstable_by_key(Item::slot);
+            None
+        };
+        // No split costs less than its traversal step: where that alone is as dear as the
+        // leaf (four items or fewer at the default costs), the SAH is not asked (same tree).
+        if n <= 1 || n <= self.leaf_size && blocks(n as u32) <= self.traversal_cost {
+            return leaf(items);
+        }
+        let plane = if depth < MEDIAN_DEPTH {
+            self.sah_split(items, bounds, centres)
+        } else {
+            None
+        };
+        // A leaf when it is small enough and no plane costs less than testing everything
+        // (SAH: a test costs 1, a traversal step `traversal_cost`).
+        let split = match plane {
+            Some((cost, _, _)) if n <= self.leaf_size && cost >= blocks(n as u32) => {
+                return leaf(items);
+            }
+            None if n <= self.leaf_size => return leaf(items),
+            Some((_, axis, position)) => partition(items, axis, position),
+            None => None,
+        };
+        Some(split.unwrap_or_else(|| {
+            let mid = median(items, centres);
+            (mid, extents(&items[..mid]), extents(&items[mid..]))
+        }))
     }
 
     /// The binned SAH's best plane: its cost (in primitive tests, traversal step included),
@@ -405,7 +423,7 @@ pub(super) fn blocks(n: u32) -> f32 {
 }
 
 /// The box of some items and the box of their centres.
-type Extents = (Aabb, Aabb);
+pub(super) type Extents = (Aabb, Aabb);
 
 /// The [`Extents`] of the items (in parallel for large nodes).
 pub(super) fn extents(items: &[Item]) -> Extents {

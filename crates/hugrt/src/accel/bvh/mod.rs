@@ -34,6 +34,7 @@ mod build;
 mod flatten;
 mod spatial;
 mod traverse;
+mod wide;
 
 pub(crate) use box_tree::BoxTree;
 use traverse::walk_tree;
@@ -42,9 +43,10 @@ use build::{Builder, Item, MAX_BINS, extents};
 use flatten::{Flattened, Part, flatten};
 
 use super::block::{self, Block, LANES};
+use super::grid::SIMD_HELP;
 use super::margin::margin_for;
 use super::settings::{Key, Settings, key};
-use super::store::{PrimStore, TriangleStorage, finite};
+use super::store::{INDEX_FROM, PrimStore, STORAGE_HELP, TriangleStorage, finite, indexed_mesh};
 use super::{Accel, CellCensus, Counters, HitSink, Primitives, SpecError, StructureStats};
 use crate::geometry::Ray;
 use glam::Vec4;
@@ -96,7 +98,7 @@ impl Node {
     };
 }
 
-/// The bvh's settings (`bvh:leaf=..,bins=..,traversal=..,spatial=..`).
+/// The bvh's settings (`bvh:leaf=..,bins=..,traversal=..,spatial=..,store=..,simd=..`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BvhSettings {
     /// Most primitives a leaf holds when the SAH does not split it (at most 16).
@@ -108,6 +110,11 @@ pub struct BvhSettings {
     /// Spatial splits (SBVH): extra references allowed, as a fraction of the primitives;
     /// 0 for none.
     pub spatial: f32,
+    /// How the leaves hold an indexed mesh's triangles: copied into blocks of four, or as
+    /// ranges of an indexed store in leaf order ([`TriangleStorage`]).
+    pub store: TriangleStorage,
+    /// Indexed leaves' triangles tested eight at a time where AVX2 is present.
+    pub simd: bool,
 }
 
 impl Default for BvhSettings {
@@ -117,6 +124,8 @@ impl Default for BvhSettings {
             bins: 16,
             traversal: 1.0,
             spatial: 0.0,
+            store: TriangleStorage::Auto,
+            simd: true,
         }
     }
 }
@@ -127,14 +136,21 @@ impl Settings for BvhSettings {
         key!("bins", bins: usize, 2..=MAX_BINS, "SAH bins per axis"),
         key!("traversal", traversal: f32, 0.0..=100.0, "cost of a traversal step relative to a block test, for the SAH"),
         key!("spatial", spatial: f32, 0.0..=4.0, "spatial splits (SBVH): extra references allowed, as a fraction of the primitives (0: none)"),
+        key!("store", store: TriangleStorage, (), STORAGE_HELP),
+        key!("simd", simd: bool, (), SIMD_HELP),
     ];
 }
 
 pub struct Bvh {
     nodes: Vec<Node>,
     /// The leaves' primitives, leaf after leaf, in blocks of [`LANES`]; a leaf's triangles
-    /// first.
+    /// first. Empty when the leaves are ranges of the store's entries (`indexed`).
     blocks: Vec<Block>,
+    /// The leaves name ranges of store entries, the store an indexed mesh's triangles in
+    /// leaf order (`store=index`), rather than ranges of blocks.
+    indexed: bool,
+    /// Indexed leaves are tested eight triangles at a time (AVX2).
+    simd: bool,
     /// Primitives in the blocks (lanes not empty).
     filled: usize,
     /// The primitives that are not triangles, which blocks name by store entry (the store's
@@ -167,6 +183,70 @@ impl TreeStats {
     }
 }
 
+/// One build item per primitive whose box is finite (`bounds(s)` the box of the `s`-th of
+/// `n`), widened by the scene's margin, and that margin. Primitives with a NaN or infinite
+/// coordinate are in no leaf: no finite ray hits them.
+fn items_of(n: usize, bounds: impl Fn(u32) -> crate::geometry::Aabb + Sync) -> (Vec<Item>, f32) {
+    use rayon::prelude::*;
+    let mut items: Vec<Item> = (0..n as u32)
+        .into_par_iter()
+        .map(|s| Item::new(s, &bounds(s)))
+        .collect();
+    if !items.par_iter().all(|it| finite(&it.aabb())) {
+        items.retain(|it| finite(&it.aabb()));
+    }
+    let scene = extents(&items).0;
+    let margin = margin_for(&scene);
+    let widen = Vec4::new(margin, margin, margin, 0.0);
+    items.par_iter_mut().for_each(|it| {
+        it.lo -= widen;
+        it.hi += widen;
+    });
+    (items, margin)
+}
+
+/// `n` empty blocks, made in parallel: the pages are first touched on both threads.
+fn empty_blocks(n: usize) -> Vec<Block> {
+    use rayon::prelude::*;
+    (0..n).into_par_iter().map(|_| Block::EMPTY).collect()
+}
+
+impl Bvh {
+    /// The bvh of an indexed mesh with leaves as ranges of an indexed store
+    /// (`store=index`): built straight to nodes of four ([`wide`]) over items that name the
+    /// primitives, whose order once built is the store's. At the build's peak it holds the
+    /// items (32 bytes a triangle) and the nodes; once built, the nodes and 16 bytes a
+    /// triangle (three vertex indices and the primitive's id), against the blocks' 40.
+    fn build_indexed<P: Primitives>(
+        prims: &P,
+        settings: &BvhSettings,
+        builder: &Builder,
+        vertices: std::sync::Arc<Vec<crate::geometry::Vec3>>,
+        simd: bool,
+    ) -> Bvh {
+        use rayon::prelude::*;
+        let (mut items, _) = items_of(prims.len(), |i| prims.bounds(i as usize));
+        let wide::Wide { nodes, stats } = builder.build_wide(&mut items);
+        let order: Vec<u32> = items.par_iter().map(Item::slot).collect();
+        drop(items);
+        let filled = order.len();
+        let store = PrimStore::indexed_in_order(prims, vertices, order);
+        Bvh {
+            nodes,
+            blocks: Vec::new(),
+            indexed: true,
+            simd: simd && super::simd::available() && store.simd_fits(),
+            filled,
+            store,
+            others: false,
+            leaf_size: settings.leaf,
+            bins: settings.bins,
+            spatial: settings.spatial,
+            stats,
+        }
+    }
+}
+
 impl Accel for Bvh {
     const NAME: &'static str = "bvh";
     type Settings = BvhSettings;
@@ -177,6 +257,8 @@ impl Accel for Bvh {
             bins,
             traversal: traversal_cost,
             spatial,
+            store: triangles,
+            simd,
         } = *settings;
         let n = prims.len();
         let budget = (spatial as f64 * n as f64) as usize;
@@ -184,6 +266,26 @@ impl Accel for Bvh {
             return Err(SpecError::Build(format!(
                 "{n} primitives and {budget} extra references: the bvh holds at most 2^27-1"
             )));
+        }
+        if budget > 0 && triangles == TriangleStorage::Index {
+            return Err(SpecError::Build(
+                "spatial splits clip copies of the triangles: store=index needs spatial=0".into(),
+            ));
+        }
+        let builder = Builder {
+            leaf_size,
+            bins,
+            traversal_cost,
+        };
+        let index = match triangles {
+            TriangleStorage::Index => true,
+            TriangleStorage::Copy => false,
+            TriangleStorage::Auto => n >= INDEX_FROM && budget == 0,
+        };
+        if let Some(vertices) = index.then(|| indexed_mesh(prims)).flatten() {
+            return Ok(Bvh::build_indexed(
+                prims, settings, &builder, vertices, simd,
+            ));
         }
         // The blocks copy the triangles, so the store needs none of its own while the tree is
         // built: an indexed mesh's are read through its indices (24 bytes a triangle less at
@@ -195,55 +297,9 @@ impl Accel for Bvh {
         };
         let store = PrimStore::build_with(prims, storage);
         use rayon::prelude::*;
-        let mut items: Vec<Item> = (0..store.len() as u32)
-            .into_par_iter()
-            .map(|s| Item::new(s, &store.bounds(prims, s)))
-            .collect();
-        // Primitives with a NaN or infinite coordinate are in no leaf: no finite ray hits them.
-        if !items.par_iter().all(|it| finite(&it.aabb())) {
-            items.retain(|it| finite(&it.aabb()));
-        }
-        let scene = extents(&items).0;
-        let margin = margin_for(&scene);
-        let widen = Vec4::new(margin, margin, margin, 0.0);
-        items.par_iter_mut().for_each(|it| {
-            it.lo -= widen;
-            it.hi += widen;
-        });
-        let builder = Builder {
-            leaf_size,
-            bins,
-            traversal_cost,
-        };
+        let (mut items, margin) = items_of(store.len(), |s| store.bounds(prims, s));
         let ext = extents(&items);
-        let (root, items) = if budget > 0 {
-            let ctx = SpatialContext {
-                tris: store.copied_triangles(),
-                margin,
-                root_area: ext.0.surface_area(),
-            };
-            builder.build_spatial(&ctx, items, 0, budget)
-        } else {
-            (builder.build(&mut items, 0, 0, ext), items)
-        };
-        let root = root.rooted();
-        let size = root.size();
-        // Made in parallel: the pages are first touched on both threads.
-        let mut nodes: Vec<Node> = (0..size.nodes)
-            .into_par_iter()
-            .map(|_| Node::EMPTY)
-            .collect();
-        let mut blocks: Vec<Block> = (0..size.blocks)
-            .into_par_iter()
-            .map(|_| Block::EMPTY)
-            .collect();
-        let part = Part {
-            nodes: &mut nodes,
-            node_base: 0,
-            blocks: &mut blocks,
-            block_base: 0,
-        };
-        // A leaf's items in store order ([`BuildNode::leaf`]).
+        // A leaf's items in store order ([`Builder::decide`]).
         let fill = |blocks: &mut [Block], items: &[Item]| {
             for (block, lanes) in blocks.iter_mut().zip(items.chunks(LANES)) {
                 for (l, it) in lanes.iter().enumerate() {
@@ -255,14 +311,53 @@ impl Accel for Bvh {
                 }
             }
         };
-        let (_, Flattened { filled, stats }) = flatten(&fill, &root, &items, 0, part);
-        root.drop_in_parallel();
+        let (nodes, blocks, filled, stats) = if budget > 0 {
+            let ctx = SpatialContext {
+                tris: store.copied_triangles(),
+                margin,
+                root_area: ext.0.surface_area(),
+            };
+            let (root, items) = builder.build_spatial(&ctx, items, 0, budget);
+            let root = root.rooted();
+            let size = root.size();
+            // Made in parallel: the pages are first touched on both threads.
+            let mut nodes: Vec<Node> = (0..size.nodes)
+                .into_par_iter()
+                .map(|_| Node::EMPTY)
+                .collect();
+            let mut blocks = empty_blocks(size.blocks);
+            let part = Part {
+                nodes: &mut nodes,
+                node_base: 0,
+                blocks: &mut blocks,
+                block_base: 0,
+            };
+            let (_, Flattened { filled, stats }) = flatten(&fill, &root, &items, 0, part);
+            root.drop_in_parallel();
+            (nodes, blocks, filled, stats)
+        } else {
+            let wide::Wide { mut nodes, stats } = builder.build_wide(&mut items);
+            let leaves = wide::leaves_to_blocks(&mut nodes);
+            let mut blocks = empty_blocks(leaves.iter().map(|l| l.count.div_ceil(LANES)).sum());
+            // Each leaf's blocks, in the order the leaves were numbered, filled side by side.
+            let mut rest = blocks.as_mut_slice();
+            let mut parts = Vec::with_capacity(leaves.len());
+            for l in &leaves {
+                let (mine, more) = std::mem::take(&mut rest).split_at_mut(l.count.div_ceil(LANES));
+                parts.push((mine, &items[l.start..l.start + l.count]));
+                rest = more;
+            }
+            parts.into_par_iter().for_each(|(b, it)| fill(b, it));
+            (nodes, blocks, items.len(), stats)
+        };
         let mut bvh = Bvh {
             nodes,
             blocks,
             filled,
             others: store.triangle_count() < store.len(),
             store,
+            indexed: false,
+            simd: false,
             leaf_size,
             bins,
             spatial,

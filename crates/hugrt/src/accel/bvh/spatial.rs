@@ -41,7 +41,10 @@ impl Builder {
     ) -> (BuildNode, Vec<Item>) {
         let (bounds, centres) = extents(&items);
         let n = items.len();
-        let leaf = |mut items: Vec<Item>| (BuildNode::leaf(&mut items, bounds, 0), items);
+        let leaf = |mut items: Vec<Item>| {
+            items.sort_unstable_by_key(Item::slot);
+            (BuildNode::leaf(&items, bounds, 0), items)
+        };
         if n <= 1 || n <= self.leaf_size && blocks(n as u32) <= self.traversal_cost {
             return leaf(items);
         }

@@ -71,6 +71,56 @@ impl Bvh {
         false
     }
 
+    /// Tests store entries `start..start + count` (an indexed leaf, every entry a triangle):
+    /// eight at a time where [`Bvh::simd`] allows, one at a time otherwise, in entry order
+    /// either way. Returns `true` when the sink stops the walk.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn test_entries<P: Primitives, C: Counters, S: HitSink>(
+        &self,
+        start: usize,
+        count: usize,
+        prims: &P,
+        ray: &PreparedRay,
+        tmin: f32,
+        sink: &mut S,
+        counters: &mut C,
+    ) -> bool {
+        let end = (start + count) as u32;
+        #[cfg(target_arch = "x86_64")]
+        if self.simd {
+            let mut s = start as u32;
+            while s < end {
+                let n = (end - s).min(8) as usize;
+                let mut batch = [s; 8];
+                for (k, b) in batch.iter_mut().enumerate().take(n) {
+                    *b = s + k as u32;
+                }
+                // SAFETY: `simd` is set only when AVX2 is present and the store's offsets fit
+                // (`build_indexed`); every entry of an indexed bvh's store is a triangle's,
+                // and the padding repeats the first.
+                if unsafe {
+                    self.store
+                        .offer_triangles8(prims, &batch, n, ray, tmin, sink, counters, 0)
+                } {
+                    return true;
+                }
+                s += n as u32;
+            }
+            return false;
+        }
+        for s in start as u32..end {
+            counters.prim_test(0);
+            if let Some(t) = self.store.intersect(prims, s, ray, tmin, sink.tmax()) {
+                counters.prim_hit(0);
+                if sink.offer(t, || self.store.id(s)) {
+                    return true;
+                }
+            }
+        }
+        false
+    }
+
     /// [`Accel::query`] of the bvh.
     #[inline(always)]
     pub(super) fn walk<P: Primitives, C: Counters, S: HitSink>(
@@ -95,6 +145,17 @@ impl Bvh {
                     let pr = PreparedRay::new(ray);
                     (pr, BlockRay::new(&pr))
                 });
+                if self.indexed {
+                    return self.test_entries(
+                        start,
+                        count,
+                        prims,
+                        &prepared.0,
+                        tmin,
+                        sink,
+                        counters,
+                    );
+                }
                 self.blocks[start..start + count]
                     .iter()
                     .any(|b| self.test_block(b, prims, prepared, tmin, sink, counters))
