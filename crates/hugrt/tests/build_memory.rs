@@ -123,7 +123,10 @@ fn an_indexed_bvh_builds_within_its_items_and_nodes() {
         let peak = (PEAK.load(Ordering::Relaxed) - before) / n;
         let kept = accel.memory_bytes() / n;
         eprintln!("{spec}: build peak {peak} bytes a triangle, {kept} kept");
-        assert!(peak <= peak_bound, "{spec}: build peak {peak} bytes a triangle");
+        assert!(
+            peak <= peak_bound,
+            "{spec}: build peak {peak} bytes a triangle"
+        );
         assert!(kept <= kept_bound, "{spec}: {kept} bytes a triangle kept");
     }
 }
