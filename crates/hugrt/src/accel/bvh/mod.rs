@@ -23,7 +23,8 @@
 //!   indices and an id a triangle (16 bytes, against a block lane's 40), tested eight at a
 //!   time where AVX2 is present. Measured on the bunny and a 1M terrain, it keeps 0.68–0.83
 //!   of the blocks' speed (`docs/measurements.md`); memory is what limits a scene of 10^8
-//!   triangles.
+//!   triangles. Up to 2^30 − 1 of them: past 2^27 entries, which a child reference cannot
+//!   name, a leaf names its number in a table of starts (`Bvh::leaf_starts`).
 //! * Traversal: children nearest first on an explicit stack that remembers each entry's
 //!   distance, so that entries beyond the nearest hit found are dropped unopened; any-hit
 //!   returns at the first hit. The walk is generic over what a leaf holds
@@ -158,6 +159,9 @@ pub struct Bvh {
     indexed: bool,
     /// Indexed leaves are tested eight triangles at a time (AVX2).
     simd: bool,
+    /// An indexed leaf's first entry by its number, when the entries are too many for a
+    /// reference to name (2^27 or more); empty when leaf references name it themselves.
+    leaf_starts: Vec<u32>,
     /// Primitives in the blocks (lanes not empty).
     filled: usize,
     /// The primitives that are not triangles, which blocks name by store entry (the store's
@@ -230,17 +234,41 @@ impl Bvh {
         builder: &Builder,
         vertices: std::sync::Arc<Vec<crate::geometry::Vec3>>,
         simd: bool,
-    ) -> Bvh {
+        table_from: usize,
+    ) -> Result<Bvh, SpecError> {
         use rayon::prelude::*;
         let (mut items, _) = items_of(prims.len(), |i| prims.bounds(i as usize));
-        let wide::Wide { nodes, stats } = builder.build_wide(&mut items);
+        let wide::Wide {
+            mut nodes,
+            leaves,
+            stats,
+        } = builder.build_wide(&mut items);
+        if leaves.len() >= 1 << LEAF_START_BITS {
+            return Err(SpecError::Build(format!(
+                "{} leaves: the bvh names at most 2^27-1; a larger `leaf` makes fewer",
+                leaves.len()
+            )));
+        }
+        // A leaf names its first entry where every start fits a reference (below
+        // `table_from`, 2^27 but in a test), and its number in a table of starts beyond
+        // (0.8 bytes a triangle at the default leaf size).
+        let leaf_starts = if items.len() < table_from {
+            wide::relabel_leaves(&mut nodes, |k| {
+                wide::leaf_reference(leaves[k].count, leaves[k].start)
+            });
+            Vec::new()
+        } else {
+            leaves.iter().map(|l| l.start).collect()
+        };
+        drop(leaves);
         let order: Vec<u32> = items.par_iter().map(Item::slot).collect();
         drop(items);
         let filled = order.len();
         let store = PrimStore::indexed_in_order(prims, vertices, order);
-        Bvh {
+        Ok(Bvh {
             nodes,
             blocks: Vec::new(),
+            leaf_starts,
             indexed: true,
             simd: simd && super::simd::available() && store.simd_fits(),
             filled,
@@ -250,7 +278,7 @@ impl Bvh {
             bins: settings.bins,
             spatial: settings.spatial,
             stats,
-        }
+        })
     }
 }
 
@@ -269,11 +297,6 @@ impl Accel for Bvh {
         } = *settings;
         let n = prims.len();
         let budget = (spatial as f64 * n as f64) as usize;
-        if n + budget >= 1 << LEAF_START_BITS {
-            return Err(SpecError::Build(format!(
-                "{n} primitives and {budget} extra references: the bvh holds at most 2^27-1"
-            )));
-        }
         if budget > 0 && triangles == TriangleStorage::Index {
             return Err(SpecError::Build(
                 "spatial splits clip copies of the triangles: store=index needs spatial=0".into(),
@@ -289,10 +312,29 @@ impl Accel for Bvh {
             TriangleStorage::Copy => false,
             TriangleStorage::Auto => n >= INDEX_FROM && budget == 0,
         };
+        // An item's store entry shares its spare lane with an exponent bit
+        // ([`build::SLOT_EXPONENT`]).
+        if n >= 1 << 30 {
+            return Err(SpecError::Build(format!(
+                "{n} primitives: the bvh holds at most 2^30-1"
+            )));
+        }
         if let Some(vertices) = index.then(|| indexed_mesh(prims)).flatten() {
-            return Ok(Bvh::build_indexed(
-                prims, settings, &builder, vertices, simd,
-            ));
+            return Bvh::build_indexed(
+                prims,
+                settings,
+                &builder,
+                vertices,
+                simd,
+                1 << LEAF_START_BITS,
+            );
+        }
+        // Blocks are named by a reference's 27 bits.
+        if n + budget >= 1 << LEAF_START_BITS {
+            return Err(SpecError::Build(format!(
+                "{n} primitives and {budget} extra references: the bvh's blocks of copies hold \
+                 at most 2^27-1 (an indexed mesh's leaves hold more, with store=index)"
+            )));
         }
         // The blocks copy the triangles, so the store needs none of its own while the tree is
         // built: an indexed mesh's are read through its indices (24 bytes a triangle less at
@@ -343,15 +385,30 @@ impl Accel for Bvh {
             root.drop_in_parallel();
             (nodes, blocks, filled, stats)
         } else {
-            let wide::Wide { mut nodes, stats } = builder.build_wide(&mut items);
-            let leaves = wide::leaves_to_blocks(&mut nodes);
-            let mut blocks = empty_blocks(leaves.iter().map(|l| l.count.div_ceil(LANES)).sum());
+            let wide::Wide {
+                mut nodes,
+                leaves,
+                stats,
+            } = builder.build_wide(&mut items);
+            // Each leaf's blocks, in the order of the leaves' numbers.
+            let mut first_block = Vec::with_capacity(leaves.len());
+            let mut total = 0u32;
+            for l in &leaves {
+                first_block.push(total);
+                total += l.count.div_ceil(LANES as u32);
+            }
+            wide::relabel_leaves(&mut nodes, |k| {
+                wide::leaf_reference(leaves[k].count.div_ceil(LANES as u32), first_block[k])
+            });
+            drop(first_block);
+            let mut blocks = empty_blocks(total as usize);
             // Each leaf's blocks, in the order the leaves were numbered, filled side by side.
             let mut rest = blocks.as_mut_slice();
             let mut parts = Vec::with_capacity(leaves.len());
             for l in &leaves {
-                let (mine, more) = std::mem::take(&mut rest).split_at_mut(l.count.div_ceil(LANES));
-                parts.push((mine, &items[l.start..l.start + l.count]));
+                let (start, count) = (l.start as usize, l.count as usize);
+                let (mine, more) = std::mem::take(&mut rest).split_at_mut(count.div_ceil(LANES));
+                parts.push((mine, &items[start..start + count]));
                 rest = more;
             }
             parts.into_par_iter().for_each(|(b, it)| fill(b, it));
@@ -365,6 +422,7 @@ impl Accel for Bvh {
             store,
             indexed: false,
             simd: false,
+            leaf_starts: Vec::new(),
             leaf_size,
             bins,
             spatial,
@@ -431,5 +489,48 @@ impl Accel for Bvh {
             full_volume: self.stats.leaf_volume,
         };
         s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::NoCounters;
+    use crate::geometry::{Ray, Vec3};
+    use crate::scene::{Mesh, Scene};
+    use rand::{Rng, SeedableRng};
+
+    /// Past 2^27 entries an indexed leaf names its start through a table; forced here on a
+    /// small mesh, the table gives every ray the hit the references themselves give.
+    #[test]
+    fn indexed_leaves_by_number_hit_as_by_start() {
+        let mut r = rand_pcg::Pcg64Mcg::seed_from_u64(3);
+        let mut p = |s: f32| Vec3::new(r.random(), r.random(), r.random()) * s;
+        let vertices: Vec<Vec3> = (0..3000).map(|_| p(10.0)).collect();
+        let triangles: Vec<[u32; 3]> = (0..1000u32)
+            .map(|i| [3 * i, 3 * i + 1, 3 * i + 2])
+            .collect();
+        let scene = Scene::from_mesh(Mesh::new(vertices, triangles).unwrap());
+        let settings = BvhSettings::default();
+        let builder = Builder {
+            leaf_size: settings.leaf,
+            bins: settings.bins,
+            traversal_cost: settings.traversal,
+        };
+        let build = |table_from| {
+            let v = indexed_mesh(&scene).expect("an indexed mesh");
+            Bvh::build_indexed(&scene, &settings, &builder, v, true, table_from).unwrap()
+        };
+        let (direct, table) = (build(1 << LEAF_START_BITS), build(0));
+        assert!(direct.leaf_starts.is_empty());
+        assert_eq!(table.leaf_starts.len(), table.stats.leaves);
+        let mut hits = 0;
+        for _ in 0..5000 {
+            let ray = Ray::new(p(10.0), p(2.0) - Vec3::ONE, 0.0, f32::INFINITY);
+            let want = direct.closest_hit(&scene, &ray, &mut NoCounters);
+            assert_eq!(table.closest_hit(&scene, &ray, &mut NoCounters), want);
+            hits += want.is_some() as usize;
+        }
+        assert!(hits > 1000, "{hits} hits");
     }
 }

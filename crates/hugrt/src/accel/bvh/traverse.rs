@@ -11,6 +11,7 @@ impl Bvh {
     pub(super) fn structure_bytes(&self) -> usize {
         self.nodes.capacity() * std::mem::size_of::<Node>()
             + self.blocks.capacity() * std::mem::size_of::<Block>()
+            + self.leaf_starts.capacity() * 4
     }
 
     /// Tests the four primitives of `b`: the triangles' edge functions together
@@ -146,6 +147,10 @@ impl Bvh {
                     (pr, BlockRay::new(&pr))
                 });
                 if self.indexed {
+                    let start = match self.leaf_starts.get(start) {
+                        Some(&s) => s as usize,
+                        None => start,
+                    };
                     return self.test_entries(
                         start,
                         count,

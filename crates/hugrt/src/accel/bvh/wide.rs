@@ -1,7 +1,9 @@
 //! The build straight to nodes of four, without the binary tree: each node's binary cuts are
 //! decided ([`Builder::decide`]) and opened as [`four`](super::flatten::four) opens a binary
 //! tree's nodes, largest area first, so the tree is the one building the binary tree and
-//! collapsing it gives. A leaf is a range of the items, which the build leaves in leaf order.
+//! collapsing it gives. A leaf is a range of the items, which the build leaves in leaf order;
+//! a node names it by its number in [`Wide::leaves`], depth first in lane order, which the
+//! bvh then replaces by what its leaves hold ([`relabel_leaves`]).
 //!
 //! The binary tree costs a small allocation a node, about 25 bytes a triangle at the build's
 //! peak; built this way, the peak holds only the items and the nodes. Subtrees of many items
@@ -9,22 +11,44 @@
 //! own, so a node is copied once per such subtree above it (a handful on 10^8 triangles).
 
 use super::build::{Builder, Extents, Item, PARALLEL_ITEMS, extents};
-use super::{LANES, LEAF, LEAF_START_BITS, NO_CHILD, Node, TreeStats, WIDTH};
+use super::{LEAF, LEAF_START_BITS, NO_CHILD, Node, TreeStats, WIDTH};
 use crate::geometry::Aabb;
 
 /// A built tree: nodes of four, the root first and each node's subtrees after it in lane
-/// order; leaf references are ranges of the items.
+/// order; a leaf reference holds its number of items and its number in `leaves`.
 pub(super) struct Wide {
     pub(super) nodes: Vec<Node>,
+    /// The leaves' ranges of items, depth first in lane order.
+    pub(super) leaves: Vec<Leaf>,
     pub(super) stats: TreeStats,
 }
 
-/// The child reference of a leaf of `count` items from the `first`-th (`1..=16` of them,
-/// `first` below 2^27: the bvh checks both before it builds).
-fn leaf_ref(first: usize, count: usize) -> u32 {
-    debug_assert!((1..=16).contains(&count) && first < 1 << LEAF_START_BITS);
-    LEAF | ((count as u32 - 1) << LEAF_START_BITS) | first as u32
+/// A leaf of a built tree: its range of the items.
+#[derive(Clone, Copy)]
+pub(super) struct Leaf {
+    pub(super) start: u32,
+    pub(super) count: u32,
 }
+
+impl Wide {
+    fn new() -> Wide {
+        Wide {
+            nodes: Vec::new(),
+            leaves: Vec::new(),
+            stats: TreeStats::default(),
+        }
+    }
+}
+
+/// The child reference of leaf number `number` of `count` items (`1..=16`; the number wraps
+/// past 2^27, which the bvh checks once built).
+fn leaf_ref(number: usize, count: usize) -> u32 {
+    debug_assert!((1..=16).contains(&count));
+    LEAF | ((count as u32 - 1) << LEAF_START_BITS) | (number as u32 & LEAF_MASK)
+}
+
+/// The low bits of a leaf reference: its start or number.
+pub(super) const LEAF_MASK: u32 = (1 << LEAF_START_BITS) - 1;
 
 /// A node of the binary build whose fate is decided: a leaf, or cut in two with its items
 /// partitioned.
@@ -41,10 +65,7 @@ struct Decided<'a> {
 impl Builder {
     /// The tree over `items`, which it reorders into leaf order.
     pub(super) fn build_wide(&self, items: &mut [Item]) -> Wide {
-        let mut wide = Wide {
-            nodes: Vec::new(),
-            stats: TreeStats::default(),
-        };
+        let mut wide = Wide::new();
         let ext = extents(items);
         let root = self.decided(items, 0, 0, ext);
         if root.cut.is_some() {
@@ -54,7 +75,7 @@ impl Builder {
         // A lone leaf, or none: a node of one child.
         let mut node = Node::EMPTY;
         if !root.items.is_empty() {
-            node.children[0] = self.leaf(&root, 1, &mut wide.stats);
+            node.children[0] = self.leaf(&root, 1, &mut wide);
             set_bounds(&mut node, 0, &root.bounds);
         }
         wide.nodes.push(node);
@@ -98,9 +119,10 @@ impl Builder {
         [l, r]
     }
 
-    /// A leaf's reference, counted in `stats` at four-wide depth `level`.
-    fn leaf(&self, d: &Decided, level: usize, stats: &mut TreeStats) -> u32 {
-        stats.add(&TreeStats {
+    /// A leaf's reference, its range added to `out`'s leaves and counted in its statistics
+    /// at four-wide depth `level`.
+    fn leaf(&self, d: &Decided, level: usize, out: &mut Wide) -> u32 {
+        out.stats.add(&TreeStats {
             leaves: 1,
             max_depth: level,
             depth_sum: level,
@@ -110,7 +132,11 @@ impl Builder {
                 d.bounds.volume() as f64
             },
         });
-        leaf_ref(d.first, d.items.len())
+        out.leaves.push(Leaf {
+            start: d.first as u32,
+            count: d.items.len() as u32,
+        });
+        leaf_ref(out.leaves.len() - 1, d.items.len())
     }
 
     /// Appends the node of four made from cut node `d`, at four-wide depth `level`, then its
@@ -153,10 +179,7 @@ impl Builder {
                 for (part, kid) in parts.iter_mut().zip(&mut kids) {
                     if let Some(k) = kid.take_if(|k| k.cut.is_some()) {
                         scope.spawn(move |_| {
-                            let mut w = Wide {
-                                nodes: Vec::new(),
-                                stats: TreeStats::default(),
-                            };
+                            let mut w = Wide::new();
                             self.node(k, level + 1, &mut w);
                             *part = Some(w);
                         });
@@ -169,18 +192,25 @@ impl Builder {
                 .reserve_exact(parts.iter().flatten().map(|p| p.nodes.len()).sum());
             for (lane, (kid, part)) in kids.iter().zip(parts).enumerate().take(n) {
                 node.children[lane] = match (kid, part) {
-                    (Some(leaf), _) => self.leaf(leaf, level + 1, &mut out.stats),
+                    (Some(leaf), _) => self.leaf(leaf, level + 1, out),
                     (None, Some(part)) => {
                         let base = out.nodes.len() as u32;
+                        let leaf_base = out.leaves.len() as u32;
                         out.nodes.extend(part.nodes.iter().map(|p| {
                             let mut p = *p;
                             for c in &mut p.children {
-                                if *c != NO_CHILD && *c & LEAF == 0 {
-                                    *c += base;
+                                if *c == NO_CHILD {
+                                    continue;
                                 }
+                                *c = if *c & LEAF == 0 {
+                                    *c + base
+                                } else {
+                                    *c & !LEAF_MASK | (*c).wrapping_add(leaf_base) & LEAF_MASK
+                                };
                             }
                             p
                         }));
+                        out.leaves.extend_from_slice(&part.leaves);
                         out.stats.add(&part.stats);
                         base
                     }
@@ -195,7 +225,7 @@ impl Builder {
                     self.node(kid, level + 1, out);
                     at
                 } else {
-                    self.leaf(&kid, level + 1, &mut out.stats)
+                    self.leaf(&kid, level + 1, out)
                 };
             }
         }
@@ -210,39 +240,20 @@ fn set_bounds(node: &mut Node, lane: usize, b: &Aabb) {
     }
 }
 
-/// A leaf of a built tree: its range of the items.
-pub(super) struct Leaf {
-    pub(super) start: usize,
-    pub(super) count: usize,
+/// Replaces each leaf reference by `by(number)`, the reference the structure's leaves need.
+pub(super) fn relabel_leaves(nodes: &mut [Node], by: impl Fn(usize) -> u32 + Sync) {
+    use rayon::prelude::*;
+    nodes.par_iter_mut().for_each(|n| {
+        for c in &mut n.children {
+            if *c != NO_CHILD && *c & LEAF != 0 {
+                *c = by((*c & LEAF_MASK) as usize);
+            }
+        }
+    });
 }
 
-/// Numbers the leaves' blocks of [`LANES`] depth first, in lane order (a node's leaves and
-/// subtrees lane by lane), and makes each leaf reference its blocks rather than its items;
-/// returns the leaves in that order.
-pub(super) fn leaves_to_blocks(nodes: &mut [Node]) -> Vec<Leaf> {
-    let mut leaves = Vec::new();
-    let mut blocks = 0u32;
-    // Nodes whose lanes are being numbered, and the next lane of each.
-    let mut stack = vec![(0usize, 0usize)];
-    while let Some((node, lane)) = stack.pop() {
-        if lane == WIDTH {
-            continue;
-        }
-        stack.push((node, lane + 1));
-        let child = nodes[node].children[lane];
-        if child == NO_CHILD {
-            continue;
-        }
-        if child & LEAF == 0 {
-            stack.push((child as usize, 0));
-            continue;
-        }
-        let start = (child & ((1 << LEAF_START_BITS) - 1)) as usize;
-        let count = ((child & !LEAF) >> LEAF_START_BITS) as usize + 1;
-        let own = count.div_ceil(LANES) as u32;
-        nodes[node].children[lane] = LEAF | ((own - 1) << LEAF_START_BITS) | blocks;
-        blocks += own;
-        leaves.push(Leaf { start, count });
-    }
-    leaves
+/// A leaf reference: `LEAF`, `count − 1` (1 to 16) and `low` (a start or a number, below
+/// 2^27).
+pub(super) fn leaf_reference(count: u32, low: u32) -> u32 {
+    LEAF | ((count - 1) << LEAF_START_BITS) | low
 }
