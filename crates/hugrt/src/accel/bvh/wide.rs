@@ -40,13 +40,6 @@ impl Wide {
     }
 }
 
-/// The child reference of leaf number `number` of `count` items (`1..=16`; the number wraps
-/// past 2^27, which the bvh checks once built).
-fn leaf_ref(number: usize, count: usize) -> u32 {
-    debug_assert!((1..=16).contains(&count));
-    LEAF | ((count as u32 - 1) << LEAF_START_BITS) | (number as u32 & LEAF_MASK)
-}
-
 /// The low bits of a leaf reference: its start or number.
 pub(super) const LEAF_MASK: u32 = (1 << LEAF_START_BITS) - 1;
 
@@ -136,7 +129,11 @@ impl Builder {
             start: d.first as u32,
             count: d.items.len() as u32,
         });
-        leaf_ref(out.leaves.len() - 1, d.items.len())
+        // The number wraps past 2^27, which the bvh checks once built.
+        leaf_reference(
+            d.items.len() as u32,
+            (out.leaves.len() - 1) as u32 & LEAF_MASK,
+        )
     }
 
     /// Appends the node of four made from cut node `d`, at four-wide depth `level`, then its
@@ -255,5 +252,6 @@ pub(super) fn relabel_leaves(nodes: &mut [Node], by: impl Fn(usize) -> u32 + Syn
 /// A leaf reference: `LEAF`, `count − 1` (1 to 16) and `low` (a start or a number, below
 /// 2^27).
 pub(super) fn leaf_reference(count: u32, low: u32) -> u32 {
+    debug_assert!((1..=16).contains(&count) && low <= LEAF_MASK);
     LEAF | ((count - 1) << LEAF_START_BITS) | low
 }
