@@ -87,17 +87,21 @@ pub(crate) fn finite(b: &Aabb) -> bool {
     !b.is_empty() && b.min.is_finite() && b.max.is_finite()
 }
 
-/// The shared vertices of `prims` when every primitive is a triangle of that indexed mesh,
-/// its indices in range: what an indexed store needs.
+/// Primitive `i`'s vertex indices when it is a triangle of the indexed mesh whose shared
+/// vertices number `vertices`, every index in range: what an indexed store holds.
+fn indexed_triangle<P: Primitives>(prims: &P, i: usize, vertices: usize) -> Option<[u32; 3]> {
+    prims
+        .mesh_triangle(i)
+        .filter(|t| t.iter().all(|&k| (k as usize) < vertices))
+}
+
+/// The shared vertices of `prims` when every primitive is a triangle of that indexed mesh
+/// ([`indexed_triangle`]): what an indexed store of all of them needs.
 pub(crate) fn indexed_mesh<P: Primitives>(prims: &P) -> Option<std::sync::Arc<Vec<Vec3>>> {
     let v = prims.shared_vertices()?;
     (0..prims.len())
         .into_par_iter()
-        .all(|i| {
-            prims
-                .mesh_triangle(i)
-                .is_some_and(|t| t.iter().all(|&k| (k as usize) < v.len()))
-        })
+        .all(|i| indexed_triangle(prims, i, v.len()).is_some())
         .then_some(v)
 }
 
@@ -179,11 +183,7 @@ impl PrimStore {
         let tri_indices = shared.as_ref().and_then(|v| {
             keys[..sphere_start]
                 .par_iter()
-                .map(|&k| {
-                    prims
-                        .mesh_triangle(id(k))
-                        .filter(|t| t.iter().all(|&i| (i as usize) < v.len()))
-                })
+                .map(|&k| indexed_triangle(prims, id(k), v.len()))
                 .collect::<Option<Vec<[u32; 3]>>>()
         });
         let (tris, tri_indices, vertices) = match tri_indices {

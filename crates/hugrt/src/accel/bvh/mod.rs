@@ -51,7 +51,6 @@ use build::{Builder, Item, MAX_BINS, extents};
 use flatten::{Flattened, Part, flatten};
 
 use super::block::{self, Block, LANES};
-use super::grid::SIMD_HELP;
 use super::margin::margin_for;
 use super::settings::{Key, Settings, key};
 use super::store::{INDEX_FROM, PrimStore, STORAGE_HELP, TriangleStorage, finite, indexed_mesh};
@@ -145,7 +144,7 @@ impl Settings for BvhSettings {
         key!("traversal", traversal: f32, 0.0..=100.0, "cost of a traversal step relative to a block test, for the SAH"),
         key!("spatial", spatial: f32, 0.0..=4.0, "spatial splits (SBVH): extra references allowed, as a fraction of the primitives (0: none)"),
         key!("store", store: TriangleStorage, (), STORAGE_HELP),
-        key!("simd", simd: bool, (), SIMD_HELP),
+        key!("simd", simd: bool, (), "false: test an indexed leaf's triangles one at a time even where AVX2 is present (store=index)"),
     ];
 }
 
