@@ -4,7 +4,7 @@
 
 use crate::load_scene;
 use anyhow::{Context, Result, bail};
-use hugrt::accel::COUNTERS;
+use hugrt::accel::{COUNTERS, Packets};
 use hugrt::bench::{BenchRow, Candidate, DEFAULT_SCENES, Workload, bench_scene, write_csv};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::path::{Path, PathBuf};
@@ -12,6 +12,8 @@ use std::path::{Path, PathBuf};
 pub struct Options {
     pub scenes: Vec<String>,
     pub accels: Vec<String>,
+    /// Each structure is measured with each mode.
+    pub packets: Vec<Packets>,
     pub workload: Workload,
     pub repeat: usize,
     pub json: Option<PathBuf>,
@@ -32,7 +34,13 @@ pub fn run(o: Options) -> Result<()> {
     } else {
         o.scenes
     };
-    let bar = ProgressBar::new((scenes.len() * o.accels.len()) as u64);
+    let runs: Vec<(&String, Packets)> = o
+        .accels
+        .iter()
+        .flat_map(|a| o.packets.iter().map(move |&p| (a, p)))
+        .collect();
+    let label = |(a, p): &(&String, Packets)| Candidate::label_of(a, *p, o.packets.len() > 1);
+    let bar = ProgressBar::new((scenes.len() * runs.len()) as u64);
     bar.set_draw_target(if o.quiet {
         ProgressDrawTarget::hidden()
     } else {
@@ -46,17 +54,20 @@ pub fn run(o: Options) -> Result<()> {
     for name in &scenes {
         bar.set_message(format!("{} (loading)", short(name)));
         let scene = load_scene(name)?;
-        let candidates: Vec<Candidate> = o
-            .accels
+        let candidates: Vec<Candidate> = runs
             .iter()
-            .map(|a| Candidate::spec(&scene, a))
+            .map(|r| Candidate {
+                label: label(r),
+                packets: r.1,
+                ..Candidate::spec(&scene, r.0)
+            })
             .collect();
-        bar.set_message(format!("{} {}", short(name), o.accels[0]));
+        bar.set_message(format!("{} {}", short(name), label(&runs[0])));
         let mut next = 1;
         let done = &mut |_: &BenchRow| {
             bar.inc(1);
-            if let Some(a) = o.accels.get(next) {
-                bar.set_message(format!("{} {a}", short(name)));
+            if let Some(r) = runs.get(next) {
+                bar.set_message(format!("{} {}", short(name), label(r)));
             }
             next += 1;
         };

@@ -16,7 +16,7 @@ mod report;
 use anyhow::{Context, Result, anyhow, bail};
 use clap::builder::TypedValueParser as _;
 use clap::{Parser, Subcommand};
-use hugrt::accel::{AnyAccel, COUNTERS, STRUCTURES};
+use hugrt::accel::{AnyAccel, COUNTERS, Packets, STRUCTURES};
 use hugrt::batch::{HitFormat, Query};
 use hugrt::bench::Workload;
 use hugrt::render::{DEFAULT_SCENE, ImageFormat, RenderJob, check_image, save_image};
@@ -150,6 +150,11 @@ struct TraceArgs {
     /// ray and level (a second, untimed pass).
     #[arg(long)]
     counters: bool,
+    /// Walk groups of 8 neighbouring rays together (closest and any hits): auto, where a
+    /// group looks coherent (directions within 11° in one octant: a camera's rays, a
+    /// light's); on, every group; off, every ray alone. The hits are the same either way.
+    #[arg(long, default_value = "auto", value_parser = clap::builder::PossibleValuesParser::new(Packets::NAMES).map(|s| s.parse::<Packets>().expect("a listed mode")))]
+    packets: Packets,
 }
 
 #[derive(clap::Args)]
@@ -242,6 +247,11 @@ struct BenchArgs {
     /// No progress bar.
     #[arg(short, long)]
     quiet: bool,
+    /// Packets for camera and Whitted rays (repeatable: each structure is measured with each
+    /// mode, e.g. `--packets auto --packets off`): auto, groups of 8 neighbouring rays that
+    /// look coherent walk together; on, every group; off, every ray alone.
+    #[arg(long = "packets", default_value = "auto", value_parser = clap::builder::PossibleValuesParser::new(Packets::NAMES).map(|s| s.parse::<Packets>().expect("a listed mode")))]
+    packets: Vec<Packets>,
 }
 
 /// `gen --size`'s help, from the kinds' own descriptions.
@@ -518,6 +528,7 @@ impl TraceArgs {
             threads,
             repeat,
             counters,
+            packets,
         } = self;
         check_spec(&accel)?;
         let query = match (any_hit, all_hits) {
@@ -559,6 +570,7 @@ impl TraceArgs {
                 query,
                 hit_format,
                 repeat as usize,
+                packets,
             )?;
             write_traced(&hits, &traced, build_s, ray_list.len())?;
             if counters {
@@ -710,6 +722,7 @@ impl BenchArgs {
             json,
             csv,
             quiet,
+            packets,
         } = self;
         if accels.is_empty() {
             bail!(
@@ -737,6 +750,7 @@ impl BenchArgs {
             bench::run(bench::Options {
                 scenes,
                 accels,
+                packets,
                 workload,
                 repeat: repeat as usize,
                 json,

@@ -3,7 +3,7 @@
 //! instances) and flattened into 1.8M triangles, with the HUG and the bvh, in one run.
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
-use hugrt::accel::{AnyAccel, NoCounters};
+use hugrt::accel::{AnyAccel, NoCounters, Packets};
 use hugrt::batch;
 use hugrt::scene::InstancedScene;
 use hugrt::world::World;
@@ -49,7 +49,7 @@ fn closest_hit(c: &mut Criterion) {
             let mut out = vec![None; rays.len()];
             g.bench_function(BenchmarkId::new(format!("{spec}/flattened"), name), |b| {
                 b.iter(|| {
-                    batch::trace_into(&flat, &accel, rays, false, &mut out);
+                    batch::trace_into(&flat, &accel, rays, false, Packets::Auto, &mut out);
                     black_box(&out);
                 })
             });

@@ -3,7 +3,7 @@
 //! The scene-file comparison (SPD scenes, meshes, Embree ratios) is `hugrt bench`.
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
-use hugrt::accel::AnyAccel;
+use hugrt::accel::{AnyAccel, Packets};
 use hugrt::batch;
 use hugrt::scene::procedural::clustered_room;
 use std::hint::black_box;
@@ -44,7 +44,7 @@ fn closest_hit(c: &mut Criterion) {
             let mut out = vec![None; rays.len()];
             g.bench_function(BenchmarkId::new(*spec, name), |b| {
                 b.iter(|| {
-                    batch::trace_into(&scene, &accel, rays, false, &mut out);
+                    batch::trace_into(&scene, &accel, rays, false, Packets::Auto, &mut out);
                     black_box(&out);
                 })
             });

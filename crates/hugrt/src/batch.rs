@@ -14,7 +14,9 @@
 //! flattened world (24 bytes; a miss is +inf and all ones). In the other formats an instanced
 //! world's hit is its flattened index, which must then be below 2^32 − 1.
 
-use crate::accel::{AnyAccel, Hit, HitDetails, NoCounters, Primitives, RayCounters};
+use crate::accel::{
+    AnyAccel, Hit, HitDetails, NoCounters, PACKET, Packets, Primitives, RayCounters,
+};
 use crate::geometry::{Ray, Vec3};
 use crate::world::{InstanceHit, World};
 use rayon::prelude::*;
@@ -175,7 +177,7 @@ pub struct Traced {
 }
 
 /// Traces `rays` `repeat` times (at least once) on the current rayon pool, timing each run,
-/// and encodes the last run's answers to `query` in `format` (one buffer for every run, as
+/// closest and any hits with `packets` ([`trace_into`]; every hit is walked ray by ray), and encodes the last run's answers to `query` in `format` (one buffer for every run, as
 /// [`trace_into`] says why).
 pub fn trace_timed<P: Primitives>(
     prims: &P,
@@ -184,6 +186,7 @@ pub fn trace_timed<P: Primitives>(
     query: Query,
     format: HitFormat,
     repeat: usize,
+    packets: Packets,
 ) -> Result<Traced, FormatError> {
     check_format(query, format)?;
     let mut times = Vec::new();
@@ -201,7 +204,16 @@ pub fn trace_timed<P: Primitives>(
         (encode_all_hits(&result), hits)
     } else {
         let mut result = vec![None; rays.len()];
-        timed(&mut || trace_into(prims, accel, rays, query == Query::Any, &mut result));
+        timed(&mut || {
+            trace_into(
+                prims,
+                accel,
+                rays,
+                query == Query::Any,
+                packets,
+                &mut result,
+            )
+        });
         let hits = result.iter().filter(|h| h.is_some()).count();
         let bytes = match format {
             HitFormat::Basic => encode_hits(&result),
@@ -255,16 +267,17 @@ pub fn encode_all_hits(hits: &[Vec<Hit>]) -> Vec<u8> {
     out
 }
 
-/// Traces every ray on the current rayon pool. Any-hit results are reported as
-/// `Hit { t: 1.0, prim: 0 }`.
+/// Traces every ray on the current rayon pool, groups of neighbours as packets where
+/// `packets` says ([`Packets`]). Any-hit results are reported as `Hit { t: 1.0, prim: 0 }`.
 pub fn trace<P: Primitives>(
     prims: &P,
     accel: &AnyAccel,
     rays: &[Ray],
     any_hit: bool,
+    packets: Packets,
 ) -> Vec<Option<Hit>> {
     let mut out = vec![None; rays.len()];
-    trace_into(prims, accel, rays, any_hit, &mut out);
+    trace_into(prims, accel, rays, any_hit, packets, &mut out);
     out
 }
 
@@ -279,20 +292,22 @@ pub fn trace_into<P: Primitives>(
     accel: &AnyAccel,
     rays: &[Ray],
     any_hit: bool,
+    packets: Packets,
     out: &mut [Option<Hit>],
 ) {
     assert_eq!(out.len(), rays.len(), "one answer per ray");
-    out.par_iter_mut()
-        .zip(rays.par_iter())
-        .with_min_len(256)
+    out.par_chunks_mut(PACKET)
+        .zip(rays.par_chunks(PACKET))
+        .with_min_len(32)
         .for_each(|(o, r)| {
-            *o = if any_hit {
-                accel
-                    .any_hit(prims, r, &mut NoCounters)
-                    .map(|_| Hit { t: 1.0, prim: 0 })
+            if any_hit {
+                accel.any_hits(prims, r, packets, o, &mut NoCounters);
+                for h in o.iter_mut() {
+                    *h = h.map(|_| Hit { t: 1.0, prim: 0 });
+                }
             } else {
-                accel.closest_hit(prims, r, &mut NoCounters)
-            };
+                accel.closest_hits(prims, r, packets, o, &mut NoCounters);
+            }
         });
 }
 

@@ -23,7 +23,9 @@
 //! the structure makes, which is what Havran's `T_TT < T_TR` compares across structures. For
 //! batches of rays all the time is in the structure, and `T_TT/T_TR` is not reported.
 
-use crate::accel::{AnyAccel, COUNTERS, CellCensus, Counts, Hit, PIT, RayCounters, SpecError, VT};
+use crate::accel::{
+    AnyAccel, COUNTERS, CellCensus, Counts, Hit, PIT, Packets, RayCounters, SpecError, VT,
+};
 use crate::batch::{camera_rays, count, incoherent_rays, trace_into};
 use crate::geometry::Ray;
 use crate::render::{
@@ -57,6 +59,8 @@ pub struct Candidate<'a> {
     pub build: Box<dyn Fn() -> Result<AnyAccel, SpecError> + Sync + 'a>,
     /// The spec for the soft shadows' structure, when the workload has soft shadows.
     pub spec: String,
+    /// When camera and Whitted rays are walked as packets.
+    pub packets: Packets,
 }
 
 impl<'a> Candidate<'a> {
@@ -67,6 +71,17 @@ impl<'a> Candidate<'a> {
             label: spec.to_string(),
             build: Box::new(move || AnyAccel::build(scene, &s)),
             spec: spec.to_string(),
+            packets: Packets::default(),
+        }
+    }
+
+    /// A row's name for `spec` measured with `packets`: the spec, with ` packets=MODE` after
+    /// it when the mode is not the default or when `always` (several modes are compared).
+    pub fn label_of(spec: &str, packets: Packets, always: bool) -> String {
+        if always || packets != Packets::default() {
+            format!("{spec} packets={packets}")
+        } else {
+            spec.to_string()
         }
     }
 }
@@ -225,7 +240,7 @@ pub fn bench_scene(
                 let mut answers = vec![None; rays.len()];
                 for _ in 0..repeat {
                     let t = Instant::now();
-                    trace_into(scene, &accel, &rays, false, &mut answers);
+                    trace_into(scene, &accel, &rays, false, cand.packets, &mut answers);
                     secs.push(t.elapsed().as_secs_f64());
                 }
                 let counters = count(scene, &accel, &rays, crate::batch::Query::Closest);

@@ -5,7 +5,7 @@
 //! that panics, a loaded scene with a non-finite coordinate, or a structure whose closest
 //! hits differ from brute force's.
 
-use crate::accel::{AnyAccel, Hit, NoCounters, Primitives};
+use crate::accel::{AnyAccel, Hit, NoCounters, PACKET, Packets, Primitives};
 use crate::batch::{camera_rays, decode_rays, incoherent_rays};
 use crate::geometry::{Ray, Shape, Vec3};
 use crate::scene::Scene;
@@ -115,6 +115,32 @@ pub fn assert_all_agree<P: Primitives, S: AsRef<str>>(prims: &P, specs: &[S], ra
             let any = accel.any_hit(prims, ray, &mut NoCounters).is_some();
             assert_eq!(any, want.is_some(), "{spec}: any-hit of ray {k} {ray:?}");
         }
+        assert_packets_agree(prims, &accel, spec, rays);
+    }
+}
+
+/// Asserts that the batch queries give every ray the answer it gets alone, bit for bit, with
+/// every group of [`PACKET`] rays walked as a packet (`Packets::On`), coherent or not.
+pub fn assert_packets_agree<P: Primitives>(prims: &P, accel: &AnyAccel, spec: &str, rays: &[Ray]) {
+    let mut got = vec![None; rays.len()];
+    accel.closest_hits(prims, rays, Packets::On, &mut got, &mut NoCounters);
+    let mut any = vec![None; rays.len()];
+    accel.any_hits(prims, rays, Packets::On, &mut any, &mut NoCounters);
+    for (k, ray) in rays.iter().enumerate() {
+        let alone = accel.closest_hit(prims, ray, &mut NoCounters);
+        assert_eq!(
+            got[k],
+            alone,
+            "{spec}: ray {k} {ray:?} in packet {}: alone {alone:?}, in the packet {:?}",
+            k / PACKET,
+            got[k]
+        );
+        assert_eq!(
+            any[k].is_some(),
+            alone.is_some(),
+            "{spec}: any-hit of ray {k} {ray:?} in packet {}",
+            k / PACKET
+        );
     }
 }
 

@@ -5,8 +5,11 @@ mod common;
 use common::*;
 use proptest::prelude::*;
 
+/// Every structure against brute force on `n_rays` awkward rays and an eighth as many in
+/// coherent groups of eight, alone and in packets ([`hugrt::fuzzing::assert_packets_agree`]).
 fn check_all(scene: &hugrt::scene::Scene, ray_seed: u64, n_rays: usize) {
-    let rays = rays_for(&scene.bounds(), ray_seed, n_rays);
+    let mut rays = rays_for(&scene.bounds(), ray_seed, n_rays);
+    rays.extend(bundles_for(&scene.bounds(), ray_seed ^ 7, n_rays / 64 + 1));
     assert_all_agree(scene, &specs(), &rays);
 }
 

@@ -152,6 +152,7 @@ fn a_structure_that_drops_a_primitive_is_caught() {
                 label: format!("{spec} without primitive {dropped}"),
                 build: Box::new(move || AnyAccel::build(&wrong, spec)),
                 spec: spec.to_string(),
+                packets: Default::default(),
             },
         ];
         for workload in [workloads()[0], workloads()[2]] {

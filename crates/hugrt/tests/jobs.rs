@@ -1,7 +1,7 @@
 //! The library's whole jobs, which the CLI only calls: a rendering, statistics, a timed
 //! batch, output formats chosen by file name, and their checks before any work.
 
-use hugrt::accel::AnyAccel;
+use hugrt::accel::{AnyAccel, Packets};
 use hugrt::batch::{self, HitFormat, Query};
 use hugrt::render::{ImageFormat, RenderJob, RenderSettings, render};
 use hugrt::scene::write::SceneFormat;
@@ -110,17 +110,21 @@ fn output_formats_follow_the_file_name() {
 fn a_timed_batch_writes_what_the_untimed_one_finds() {
     let scene = Scene::open("builtin:kitchen:1").unwrap();
     let accel = AnyAccel::build(&scene, "bvh").unwrap();
-    let rays = batch::incoherent_rays(&Scene::bounds(&scene), 500, 3);
-    let closest = batch::trace(&scene, &accel, &rays, false);
-    let t = batch::trace_timed(&scene, &accel, &rays, Query::Closest, HitFormat::Basic, 2).unwrap();
-    assert_eq!(t.bytes, batch::encode_hits(&closest));
+    let mut rays = batch::incoherent_rays(&Scene::bounds(&scene), 500, 3);
+    rays.extend(batch::camera_rays(&Scene::bounds(&scene), 32, 16));
+    let closest = batch::trace(&scene, &accel, &rays, false, Packets::Off);
+    let timed = |query, format, repeat| {
+        batch::trace_timed(&scene, &accel, &rays, query, format, repeat, Packets::On)
+    };
+    let t = timed(Query::Closest, HitFormat::Basic, 2).unwrap();
+    assert_eq!(t.bytes, batch::encode_hits(&closest), "packets or not");
     assert_eq!(t.hits, closest.iter().flatten().count());
-    let all = batch::trace_timed(&scene, &accel, &rays, Query::All, HitFormat::Basic, 1).unwrap();
+    let all = timed(Query::All, HitFormat::Basic, 1).unwrap();
     assert_eq!(
         all.bytes,
         batch::encode_all_hits(&batch::trace_all(&scene, &accel, &rays))
     );
-    assert!(batch::trace_timed(&scene, &accel, &rays, Query::Any, HitFormat::Full, 1).is_err());
+    assert!(timed(Query::Any, HitFormat::Full, 1).is_err());
 }
 
 #[test]

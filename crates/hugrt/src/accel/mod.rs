@@ -24,6 +24,7 @@ mod kdtree;
 mod mailbox;
 mod margin;
 mod octree;
+pub mod packet;
 mod query;
 mod reach;
 mod rgrid;
@@ -47,6 +48,7 @@ pub use hug::{Hug, HugSettings};
 pub use kdtree::{KdTree, KdTreeSettings, Layout as KdTreeLayout, SplitRule as KdTreeSplit};
 pub use mailbox::Mailbox;
 pub use octree::{Octree, OctreeSettings};
+pub use packet::{PACKET, Packets};
 pub use query::{AnyHit, Closest, EveryHit, Hit, HitSink};
 pub use reach::Reach;
 pub use rgrid::{RecursiveGrid, RecursiveGridSettings};
@@ -300,6 +302,24 @@ pub trait Accel: Sized + Send + Sync {
         counters: &mut C,
     );
 
+    /// The walk of a packet ([`packet`]): up to [`PACKET`] rays, each traceable, near
+    /// ([`Reach::is_near`]) and without subnormal direction components
+    /// ([`Ray::without_subnormal_direction`]), each offering its hits to its own sink as
+    /// [`Accel::query`] would. Callers go through [`Accel::closest_hits`] and
+    /// [`Accel::any_hits`]. The default walks the rays one at a time; a structure with a packet
+    /// walk overrides it.
+    fn query_packet<P: Primitives, C: Counters, S: HitSink>(
+        &self,
+        prims: &P,
+        rays: &[Ray],
+        sinks: &mut [S],
+        counters: &mut C,
+    ) {
+        for (ray, sink) in rays.iter().zip(sinks) {
+            self.query(prims, ray, sink, counters);
+        }
+    }
+
     /// Where the primitives lie: far rays are moved to them before the walk ([`Reach`]).
     fn reach(&self) -> &Reach;
 
@@ -371,6 +391,58 @@ pub trait Accel: Sized + Send + Sync {
         let mut sink = AnyHit::new(ray.tmax);
         self.query(prims, ray, &mut sink, counters);
         sink.hit()
+    }
+
+    /// The closest hit of each ray: `out[i]` is [`Accel::closest_hit`] of `rays[i]`, bit for
+    /// bit. Groups of [`PACKET`] neighbouring rays are walked together as `packets` says
+    /// ([`Packets`]): give the rays in an order where neighbours are coherent (a camera's
+    /// pixels row by row, shadow rays of neighbouring points).
+    ///
+    /// # Panics
+    /// When `out` and `rays` differ in length.
+    fn closest_hits<P: Primitives, C: Counters>(
+        &self,
+        prims: &P,
+        rays: &[Ray],
+        packets: Packets,
+        out: &mut [Option<Hit>],
+        counters: &mut C,
+    ) {
+        first_hits(
+            self,
+            prims,
+            rays,
+            packets,
+            out,
+            counters,
+            Closest::new,
+            Closest::hit,
+        );
+    }
+
+    /// Some hit of each ray, if it has any: `out[i]` is `Some` exactly when
+    /// [`Accel::any_hit`] of `rays[i]` is, with packets as [`Accel::closest_hits`].
+    ///
+    /// # Panics
+    /// When `out` and `rays` differ in length.
+    fn any_hits<P: Primitives, C: Counters>(
+        &self,
+        prims: &P,
+        rays: &[Ray],
+        packets: Packets,
+        out: &mut [Option<Hit>],
+        counters: &mut C,
+    ) {
+        first_hits(
+            self,
+            prims,
+            rays,
+            packets,
+            out,
+            counters,
+            AnyHit::new,
+            AnyHit::hit,
+        );
     }
 
     /// Every hit in the ray's `[tmin, tmax]`, each primitive once (its nearest hit there),
@@ -453,6 +525,65 @@ fn far_first_hit<A: Accel, P: Primitives, C: Counters, S: HitSink>(
     let mut sink = sink(m.ray.tmax);
     accel.query(prims, &m.ray, &mut sink, counters);
     hit(&sink).map(|h| m.hit(h))
+}
+
+/// [`Accel::closest_hits`] (`Closest::new`, `Closest::hit`) or [`Accel::any_hits`] (the same
+/// of `AnyHit`): each group of [`PACKET`] rays that `packets` walks together goes to
+/// [`Accel::query_packet`], all but the rays that are not traceable or not near, which are
+/// answered one at a time as [`Accel::closest_hit`] and [`Accel::any_hit`] answer them.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn first_hits<A: Accel, P: Primitives, C: Counters, S: HitSink>(
+    accel: &A,
+    prims: &P,
+    rays: &[Ray],
+    packets: Packets,
+    out: &mut [Option<Hit>],
+    counters: &mut C,
+    sink: fn(f32) -> S,
+    hit: fn(&S) -> Option<Hit>,
+) {
+    assert_eq!(out.len(), rays.len(), "one answer per ray");
+    let alone = |ray: &Ray, counters: &mut C| {
+        if !ray.is_traceable() {
+            return None;
+        }
+        let ray = &ray.without_subnormal_direction();
+        if !accel.reach().is_near(ray) {
+            return far_first_hit(accel, prims, ray, counters, sink, hit);
+        }
+        let mut s = sink(ray.tmax);
+        accel.query(prims, ray, &mut s, counters);
+        hit(&s)
+    };
+    for (group, answers) in rays.chunks(PACKET).zip(out.chunks_mut(PACKET)) {
+        if !packets.walk_together(group) {
+            for (ray, answer) in group.iter().zip(answers) {
+                *answer = alone(ray, counters);
+            }
+            continue;
+        }
+        let mut walked = [group[0]; PACKET];
+        let mut lane_of = [0usize; PACKET];
+        let mut n = 0;
+        for (k, ray) in group.iter().enumerate() {
+            if ray.is_traceable() {
+                let r = ray.without_subnormal_direction();
+                if accel.reach().is_near(&r) {
+                    walked[n] = r;
+                    lane_of[n] = k;
+                    n += 1;
+                    continue;
+                }
+            }
+            answers[k] = alone(ray, counters);
+        }
+        let mut sinks: [S; PACKET] = std::array::from_fn(|l| sink(walked[l].tmax));
+        accel.query_packet(prims, &walked[..n], &mut sinks[..n], counters);
+        for l in 0..n {
+            answers[lane_of[l]] = hit(&sinks[l]);
+        }
+    }
 }
 
 /// Declares the list of structures: generates [`AnyAccel`] and [`STRUCTURES`].
@@ -556,6 +687,20 @@ macro_rules! structures {
                 &self, prims: &P, ray: &Ray, counters: &mut C,
             ) -> Option<Hit> {
                 match self { $(AnyAccel::$variant(a) => a.any_hit(prims, ray, counters),)* }
+            }
+
+            /// The closest hit of each ray, packets as `packets` says ([`Accel::closest_hits`]).
+            pub fn closest_hits<P: Primitives, C: Counters>(
+                &self, prims: &P, rays: &[Ray], packets: Packets, out: &mut [Option<Hit>], counters: &mut C,
+            ) {
+                match self { $(AnyAccel::$variant(a) => a.closest_hits(prims, rays, packets, out, counters),)* }
+            }
+
+            /// Some hit of each ray, packets as `packets` says ([`Accel::any_hits`]).
+            pub fn any_hits<P: Primitives, C: Counters>(
+                &self, prims: &P, rays: &[Ray], packets: Packets, out: &mut [Option<Hit>], counters: &mut C,
+            ) {
+                match self { $(AnyAccel::$variant(a) => a.any_hits(prims, rays, packets, out, counters),)* }
             }
 
             /// Every hit in the ray's `[tmin, tmax]` as the walk finds it ([`Accel::for_each_hit`]).

@@ -348,6 +348,65 @@ pub fn rays_for(b: &Aabb, seed: u64, n: usize) -> Vec<Ray> {
         .collect()
 }
 
+/// Coherent groups of eight rays, as packets meet them: a camera's neighbouring pixels from
+/// outside or inside the box, shadow rays from neighbouring points to one point (`tmax` 1, as
+/// the renderer's), and groups that share an origin but point into one octant only roughly.
+/// Some groups straddle an axis (directions of both signs), some lie in an axis plane.
+pub fn bundles_for(b: &Aabb, seed: u64, groups: usize) -> Vec<Ray> {
+    let mut r = rng(seed);
+    let e = b.extent().max(Vec3::splat(1e-3));
+    let lerp = |t: Vec3| b.min + e * t;
+    let mut rays = Vec::with_capacity(8 * groups);
+    for g in 0..groups {
+        let spread = e.length() * 10f32.powi(-r.random_range(1..=4));
+        let target = lerp(v3(&mut r, 0.0, 1.0));
+        match g % 4 {
+            0 => {
+                let o = b.center() + v3(&mut r, -1.0, 1.0).normalize_or(Vec3::X) * e.length();
+                for k in 0..8 {
+                    let p = target + Vec3::new(k as f32, 0.0, (k % 2) as f32) * spread * 0.1;
+                    rays.push(Ray::new(o, p - o, 0.0, f32::INFINITY));
+                }
+            }
+            1 => {
+                let o = lerp(v3(&mut r, 0.0, 1.0));
+                let d = v3(&mut r, -1.0, 1.0);
+                for _ in 0..8 {
+                    let jitter = v3(&mut r, -0.05, 0.05);
+                    rays.push(Ray::new(o, d + jitter, 0.0, f32::INFINITY));
+                }
+            }
+            2 => {
+                let light = lerp(v3(&mut r, -0.5, 1.5));
+                for _ in 0..8 {
+                    let p = target + v3(&mut r, -1.0, 1.0) * spread;
+                    rays.push(Ray::new(p, light - p, 1e-4, 1.0));
+                }
+            }
+            _ => {
+                // In an axis plane through quarter marks, some directions along the axis.
+                let a = r.random_range(0..3);
+                let mut o = lerp(v3(&mut r, 0.0, 1.0));
+                o[a] = lerp(Vec3::splat(r.random_range(0..=4) as f32 / 4.0))[a];
+                for k in 0..8 {
+                    let mut d = v3(&mut r, -1.0, 1.0);
+                    d[a] = 0.0;
+                    if k % 3 == 0 {
+                        d[(a + 1) % 3] = 0.0;
+                    }
+                    rays.push(Ray::new(
+                        o,
+                        if d == Vec3::ZERO { Vec3::X } else { d },
+                        0.0,
+                        1e30,
+                    ));
+                }
+            }
+        }
+    }
+    rays
+}
+
 /// Asserts that the structure built from `spec` answers every ray like brute force: the same
 /// primitive at the same `t` (ties go to the lower index in every structure), and any-hit
 /// finds a hit exactly when closest-hit does.

@@ -40,6 +40,7 @@
 mod box_tree;
 mod build;
 mod flatten;
+mod packet;
 mod spatial;
 mod traverse;
 mod wide;
@@ -440,6 +441,16 @@ impl Accel for Bvh {
         counters: &mut C,
     ) {
         self.walk(prims, ray, sink, counters);
+    }
+
+    fn query_packet<P: Primitives, C: Counters, S: HitSink>(
+        &self,
+        prims: &P,
+        rays: &[Ray],
+        sinks: &mut [S],
+        counters: &mut C,
+    ) {
+        self.walk_packet(prims, rays, sinks, counters);
     }
 
     fn reach(&self) -> &crate::accel::Reach {

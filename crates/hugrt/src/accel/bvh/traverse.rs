@@ -122,6 +122,32 @@ impl Bvh {
         false
     }
 
+    /// Tests leaf `count` slots from `start` of the leaf list: an indexed leaf's store
+    /// entries, or its blocks. Returns `true` when the sink stops the walk.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    pub(super) fn test_leaf<P: Primitives, C: Counters, S: HitSink>(
+        &self,
+        start: usize,
+        count: usize,
+        prims: &P,
+        prepared: &(PreparedRay, BlockRay),
+        tmin: f32,
+        sink: &mut S,
+        counters: &mut C,
+    ) -> bool {
+        if self.indexed {
+            let start = match self.leaf_starts.get(start) {
+                Some(&s) => s as usize,
+                None => start,
+            };
+            return self.test_entries(start, count, prims, &prepared.0, tmin, sink, counters);
+        }
+        self.blocks[start..start + count]
+            .iter()
+            .any(|b| self.test_block(b, prims, prepared, tmin, sink, counters))
+    }
+
     /// [`Accel::query`] of the bvh.
     #[inline(always)]
     pub(super) fn walk<P: Primitives, C: Counters, S: HitSink>(
@@ -146,24 +172,7 @@ impl Bvh {
                     let pr = PreparedRay::new(ray);
                     (pr, BlockRay::new(&pr))
                 });
-                if self.indexed {
-                    let start = match self.leaf_starts.get(start) {
-                        Some(&s) => s as usize,
-                        None => start,
-                    };
-                    return self.test_entries(
-                        start,
-                        count,
-                        prims,
-                        &prepared.0,
-                        tmin,
-                        sink,
-                        counters,
-                    );
-                }
-                self.blocks[start..start + count]
-                    .iter()
-                    .any(|b| self.test_block(b, prims, prepared, tmin, sink, counters))
+                self.test_leaf(start, count, prims, prepared, tmin, sink, counters)
             },
         );
     }

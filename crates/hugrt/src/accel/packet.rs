@@ -1,0 +1,129 @@
+//! Packets: rays walked through a structure together, for the rays a renderer shoots in bulk
+//! (a camera's neighbouring pixels, shadow rays from neighbouring points to one light).
+//!
+//! A packet is up to [`PACKET`] rays. A structure with a packet walk ([`super::Accel::query_packet`])
+//! fetches each node or cell once for all the rays that reach it, and meets it with all of them
+//! in one pass of lane-wise arithmetic; a structure without one walks the rays one at a time.
+//! Either way each ray gets exactly the answer it gets alone: the packet may test a ray against
+//! more primitives than its own walk would (a node reached by the packet in another order, when
+//! the ray's nearest hit so far is farther), never fewer, and the closest hit does not depend on
+//! the order of the tests ([`super::Hit::improves`]).
+//!
+//! [`Packets`] says when to use them: `auto` walks together the rays of a group of
+//! [`PACKET`] neighbours in the caller's order that look coherent ([`coherent`]), so that a
+//! camera's rays or a light's, written by any tool, qualify; `on` walks every group as a
+//! packet; `off` walks every ray alone.
+
+use super::Ray;
+
+/// Rays a packet holds: eight lanes, one AVX register of `f32`.
+pub const PACKET: usize = 8;
+
+/// When batch queries walk rays as packets.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Packets {
+    /// Groups of [`PACKET`] neighbouring rays that look coherent ([`coherent`]) as packets, the
+    /// others one at a time.
+    #[default]
+    Auto,
+    /// Every group of [`PACKET`] neighbouring rays as a packet, coherent or not.
+    On,
+    /// Every ray on its own.
+    Off,
+}
+
+impl Packets {
+    /// Every value's name, as `str::parse` reads it.
+    pub const NAMES: &[&str] = &["auto", "on", "off"];
+
+    /// Whether the group `rays` is walked as a packet.
+    #[inline]
+    pub fn walk_together(self, rays: &[Ray]) -> bool {
+        match self {
+            Packets::Auto => coherent(rays),
+            Packets::On => rays.len() > 1,
+            Packets::Off => false,
+        }
+    }
+}
+
+impl std::str::FromStr for Packets {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "auto" => Ok(Packets::Auto),
+            "on" => Ok(Packets::On),
+            "off" => Ok(Packets::Off),
+            _ => Err(format!(
+                "unknown packets mode `{s}`: expected one of {}",
+                Self::NAMES.join(", ")
+            )),
+        }
+    }
+}
+
+impl std::fmt::Display for Packets {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Packets::Auto => "auto",
+            Packets::On => "on",
+            Packets::Off => "off",
+        })
+    }
+}
+
+/// Whether neighbouring rays are worth walking together: at least two, every direction in
+/// the same octant as the first and within [`COHERENT_COS`] of it. Rays from one point through
+/// neighbouring pixels qualify, and so do rays from neighbouring points to one light; rays in
+/// random directions do not. Only a matter of speed: packets give every ray its own answer.
+pub fn coherent(rays: &[Ray]) -> bool {
+    let Some(first) = rays.first() else {
+        return false;
+    };
+    let d0 = first.dir.normalize_or_zero();
+    let sign = first.dir.is_negative_bitmask();
+    rays.len() > 1
+        && rays[1..].iter().all(|r| {
+            r.dir.is_negative_bitmask() == sign && r.dir.normalize_or_zero().dot(d0) >= COHERENT_COS
+        })
+}
+
+/// The cosine of the widest angle [`coherent`] allows between a group's first direction and
+/// another's: 0.98, about 11°, several times a 1024-pixel camera's group of eight (a
+/// 45° field of view spreads eight neighbouring pixels over 0.35°) or a light's from points a
+/// tenth of its distance apart.
+pub const COHERENT_COS: f32 = 0.98;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::Vec3;
+
+    fn ray(d: Vec3) -> Ray {
+        Ray::new(Vec3::ZERO, d, 0.0, f32::INFINITY)
+    }
+
+    #[test]
+    fn neighbouring_pixels_are_coherent_and_random_directions_are_not() {
+        let pixels: Vec<Ray> = (0..8)
+            .map(|i| ray(Vec3::new(0.01 * i as f32, 0.3, 1.0)))
+            .collect();
+        assert!(coherent(&pixels));
+        let mut spread = pixels.clone();
+        spread[5] = ray(Vec3::new(1.0, 0.3, 1.0));
+        assert!(!coherent(&spread), "45° apart");
+        let mut flipped = pixels.clone();
+        flipped[3] = ray(Vec3::new(0.01, -1e-3, 1.0));
+        assert!(!coherent(&flipped), "another octant");
+        assert!(!coherent(&pixels[..1]));
+        assert!(!coherent(&[]));
+    }
+
+    #[test]
+    fn modes_parse_and_print() {
+        for n in Packets::NAMES {
+            assert_eq!(n.parse::<Packets>().unwrap().to_string(), *n);
+        }
+        assert!("sometimes".parse::<Packets>().is_err());
+    }
+}
