@@ -115,6 +115,11 @@ struct RenderArgs {
     allow_empty: bool,
     #[command(flatten)]
     view: ViewArgs,
+    /// Walk groups of 8 neighbouring eye rays, and their shadow rays to each light,
+    /// together: auto, where a group looks coherent; on, every group; off, every ray alone.
+    /// The image is the same either way.
+    #[arg(long, default_value = "auto", value_parser = clap::builder::PossibleValuesParser::new(Packets::NAMES).map(|s| s.parse::<Packets>().expect("a listed mode")))]
+    packets: Packets,
 }
 
 #[derive(clap::Args)]
@@ -437,6 +442,7 @@ impl RenderArgs {
             quiet,
             allow_empty,
             view,
+            packets,
         } = self;
         let job = RenderJob {
             width: image.width,
@@ -446,6 +452,7 @@ impl RenderArgs {
             soft_shadows: image.soft_shadows,
             view: view.view(),
             allow_empty,
+            packets,
             ..RenderJob::new(scene.as_deref().unwrap_or(DEFAULT_SCENE), &accel)
         };
         check_spec(&accel)?;

@@ -28,6 +28,7 @@ pub fn render<'py>(
         height,
         depth,
         counters: false,
+        packets: Default::default(),
     };
     let pool = pool(threads)?;
     let radiance = py.detach(|| {

@@ -265,6 +265,7 @@ pub fn bench_scene(
                     height: height.unwrap_or(scene.camera.height),
                     depth,
                     counters: false,
+                    packets: cand.packets,
                 };
                 let once = |s: &RenderSettings| -> Rendered {
                     match &soft {
@@ -280,6 +281,7 @@ pub fn bench_scene(
                 }
                 let counted = RenderSettings {
                     counters: true,
+                    packets: cand.packets,
                     ..settings
                 };
                 let (out, recording) = render_recorded(scene, &accel, soft.as_ref(), &counted);

@@ -383,6 +383,7 @@ fn an_instanced_world_renders_as_its_flattened_copies() {
             height: 64,
             depth: 3,
             counters: false,
+            packets: Default::default(),
         };
         for spec in ["hug", "bvh"] {
             let world = World::build(scene.clone(), spec).unwrap();
@@ -536,6 +537,7 @@ fn a_render_job_renders_instances_as_their_copies() {
         height: 96,
         depth: 4,
         counters: false,
+        packets: Default::default(),
     };
     let want = render(&flat, &accel, &settings, &|_| {});
     let differ = want

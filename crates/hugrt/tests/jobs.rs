@@ -24,6 +24,7 @@ fn a_render_job_is_the_rendering_of_its_parts() {
         height: 30,
         depth: 4,
         counters: false,
+        packets: Default::default(),
     };
     let direct = render(&scene, &accel, &settings, &|_| {});
     assert_eq!(out.image, direct.image);
@@ -256,6 +257,7 @@ fn exr_keeps_the_radiance_and_png_the_image() {
         height: 16,
         depth: 2,
         counters: false,
+        packets: Default::default(),
     };
     let rendered = render(&scene, &accel, &settings, &|_| {});
     let dir = std::env::temp_dir().join(format!("hugrt-exr-{}", std::process::id()));

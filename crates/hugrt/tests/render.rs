@@ -3,7 +3,7 @@
 
 mod common;
 
-use hugrt::accel::AnyAccel;
+use hugrt::accel::{AnyAccel, Packets};
 use hugrt::render::{
     RenderSettings, Rendered, SoftShadows, render, render_recorded, render_replayed, render_rows,
     render_soft,
@@ -19,7 +19,9 @@ fn draw(scene: &Scene, spec: &str, width: u32, height: u32) -> Rendered {
     draw_with(scene, spec, None, width, height)
 }
 
-/// Renders at depth 4, with soft shadows of that light radius when one is given.
+/// Renders at depth 4, with soft shadows of that light radius when one is given. Brute force
+/// traces ray by ray; every other structure walks every group of eye and shadow rays as a
+/// packet (`Packets::On`), so that its image, compared with brute force's, checks both.
 fn draw_with(scene: &Scene, spec: &str, radius: Option<f32>, width: u32, height: u32) -> Rendered {
     let accel = AnyAccel::build(scene, spec).unwrap();
     let settings = RenderSettings {
@@ -27,6 +29,11 @@ fn draw_with(scene: &Scene, spec: &str, radius: Option<f32>, width: u32, height:
         height,
         depth: 4,
         counters: false,
+        packets: if spec == "brute" {
+            Packets::Off
+        } else {
+            Packets::On
+        },
     };
     match radius {
         None => render(scene, &accel, &settings, &|_| {}),
@@ -157,6 +164,7 @@ fn replayed_rendering_is_the_same_image() {
         height: 32,
         depth: 4,
         counters: false,
+        packets: Default::default(),
     };
     let (recorded, recording) = render_recorded(&s, &accel, None, &settings);
     let replayed = render_replayed(&s, &recording, &settings);
@@ -177,6 +185,7 @@ fn bands_of_rows_are_the_whole_images_rows() {
         height: 29,
         depth: 4,
         counters: false,
+        packets: Default::default(),
     };
     let whole = render(&scene, &accel, &settings, &|_| {});
     assert_eq!(whole.radiance.len(), 37 * 29);

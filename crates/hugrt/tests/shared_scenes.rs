@@ -67,6 +67,7 @@ fn spd_ray_counts_land_near_the_published_ones() {
             height: 512,
             depth: 4,
             counters: false,
+            packets: Default::default(),
         };
         let c = render(&s, &accel, &settings, &|_| {}).counts;
         assert_eq!(c.eye_rays, 263169);

@@ -4,7 +4,7 @@
 
 use super::{RenderReport, RenderSettings, Rendered, SoftShadows, render_impl, render_world};
 use crate::Error;
-use crate::accel::AnyAccel;
+use crate::accel::{AnyAccel, Packets};
 use crate::scene::{InstancedScene, View};
 use crate::world::World;
 use std::time::Instant;
@@ -37,6 +37,8 @@ pub struct RenderJob {
     pub view: View,
     /// Render a scene with no primitives (a blank image) rather than fail.
     pub allow_empty: bool,
+    /// When eye and shadow rays are walked as packets ([`RenderSettings::packets`]).
+    pub packets: Packets,
 }
 
 impl RenderJob {
@@ -53,6 +55,7 @@ impl RenderJob {
             soft_shadows: None,
             view: View::default(),
             allow_empty: false,
+            packets: Packets::default(),
         }
     }
 
@@ -102,6 +105,7 @@ impl RenderJob {
             height: self.height.unwrap_or(scene.camera.height),
             depth: self.depth,
             counters: self.counters,
+            packets: self.packets,
         };
         check_image(Some(settings.width), Some(settings.height), None)?;
         let total = settings.height as u64 + 1;
@@ -167,6 +171,7 @@ impl RenderJob {
             height: self.height.unwrap_or(camera.height),
             depth: self.depth,
             counters: self.counters,
+            packets: self.packets,
         };
         check_image(Some(settings.width), Some(settings.height), None)?;
         let total = settings.height as u64 + 1;

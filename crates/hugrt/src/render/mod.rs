@@ -24,7 +24,7 @@ pub use job::{DEFAULT_SCENE, MAX_SIDE, RenderJob, check_image};
 pub use output::{ImageFormat, save_image};
 pub use soft::{DEFAULT_LIGHT_RADIUS, SoftShadows};
 
-use crate::accel::{AnyAccel, Counters, Hit, NoCounters, RayCounters};
+use crate::accel::{AnyAccel, Counters, Hit, NoCounters, Packets, RayCounters};
 use crate::geometry::{Aabb, PreparedRay, Ray, SurfacePoint, Vec3};
 use crate::scene::{Material, Scene};
 use crate::world::{InstanceHit, World};
@@ -43,6 +43,10 @@ pub struct RenderSettings {
     pub depth: u32,
     /// Gather #pit/#pi/#bbi/#vt per level (slower).
     pub counters: bool,
+    /// When eye rays and the shadow rays of their hits are walked as packets ([`Packets`]):
+    /// a row's eye rays go to the structure together, and then its shadow rays light by
+    /// light. The image is the same either way.
+    pub packets: Packets,
 }
 
 /// What `hugrt render --stats-json` writes: the ray counts, then the run's facts; the schema
@@ -272,7 +276,11 @@ fn render_impl(
     rows: std::ops::Range<u32>,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Rendered {
-    let live = |_| Live { accel, soft };
+    let live = |_| Live {
+        accel,
+        soft,
+        packets: settings.packets,
+    };
     let (rendered, _) = if settings.counters {
         render_with::<RayCounters, _, _>(scene, settings, rows, &live, progress)
     } else {
@@ -309,7 +317,11 @@ pub fn render_recorded(
     settings: &RenderSettings,
 ) -> (Rendered, Recording) {
     let record = |_| Recorder {
-        live: Live { accel, soft },
+        live: Live {
+            accel,
+            soft,
+            packets: settings.packets,
+        },
         answers: Answers::default(),
     };
     let all = 0..settings.height.max(1);
@@ -378,11 +390,37 @@ trait Queries<S: Stage>: Send {
         to_light: Vec3,
         counters: &mut C,
     ) -> f32;
+    /// [`Queries::closest`] of each ray, in order: where packets are walked, together.
+    fn closest_each<C: Counters>(
+        &mut self,
+        stage: &S,
+        rays: &[Ray],
+        out: &mut [Option<S::Hit>],
+        counters: &mut C,
+    ) {
+        for (ray, o) in rays.iter().zip(out) {
+            *o = self.closest(stage, ray, counters);
+        }
+    }
+    /// [`Queries::light`] of each shadow ray `(from, to_light)`, in order: where packets are
+    /// walked, together.
+    fn light_each<C: Counters>(
+        &mut self,
+        stage: &S,
+        shadows: &[(Vec3, Vec3)],
+        out: &mut [f32],
+        counters: &mut C,
+    ) {
+        for (&(from, to_light), o) in shadows.iter().zip(out) {
+            *o = self.light(stage, from, to_light, counters);
+        }
+    }
 }
 
 struct Live<'a> {
     accel: &'a AnyAccel,
     soft: Option<&'a SoftShadows>,
+    packets: Packets,
 }
 
 impl Queries<Scene> for Live<'_> {
@@ -411,6 +449,42 @@ impl Queries<Scene> for Live<'_> {
             Some(soft) => soft.visibility(scene, from, to_light, counters),
         }
     }
+
+    fn closest_each<C: Counters>(
+        &mut self,
+        scene: &Scene,
+        rays: &[Ray],
+        out: &mut [Option<Hit>],
+        counters: &mut C,
+    ) {
+        self.accel
+            .closest_hits(scene, rays, self.packets, out, counters);
+    }
+
+    fn light_each<C: Counters>(
+        &mut self,
+        scene: &Scene,
+        shadows: &[(Vec3, Vec3)],
+        out: &mut [f32],
+        counters: &mut C,
+    ) {
+        if let Some(soft) = self.soft {
+            for (&(from, to_light), o) in shadows.iter().zip(out) {
+                *o = soft.visibility(scene, from, to_light, counters);
+            }
+            return;
+        }
+        let rays: Vec<Ray> = shadows
+            .iter()
+            .map(|&(from, to_light)| Ray::new(from, to_light, 0.0, 1.0))
+            .collect();
+        let mut hits = vec![None; rays.len()];
+        self.accel
+            .any_hits(scene, &rays, self.packets, &mut hits, counters);
+        for (h, o) in hits.iter().zip(out) {
+            *o = if h.is_some() { 0.0 } else { 1.0 };
+        }
+    }
 }
 
 struct Recorder<'a> {
@@ -435,6 +509,28 @@ impl Queries<Scene> for Recorder<'_> {
         let v = self.live.light(scene, from, to_light, counters);
         self.answers.light.push(v);
         v
+    }
+
+    fn closest_each<C: Counters>(
+        &mut self,
+        scene: &Scene,
+        rays: &[Ray],
+        out: &mut [Option<Hit>],
+        counters: &mut C,
+    ) {
+        self.live.closest_each(scene, rays, out, counters);
+        self.answers.hits.extend_from_slice(out);
+    }
+
+    fn light_each<C: Counters>(
+        &mut self,
+        scene: &Scene,
+        shadows: &[(Vec3, Vec3)],
+        out: &mut [f32],
+        counters: &mut C,
+    ) {
+        self.live.light_each(scene, shadows, out, counters);
+        self.answers.light.extend_from_slice(out);
     }
 }
 
@@ -504,14 +600,13 @@ fn render_with<C: Summable, S: Stage, Q: Queries<S>>(
                 counters: C::default(),
             };
             let v = (1.0 - 2.0 * j as f32 / h as f32) * half;
-            let row = (0..=w)
+            let eye: Vec<Ray> = (0..=w)
                 .map(|i| {
                     let u = (2.0 * i as f32 / w as f32 - 1.0) * half * aspect;
-                    let ray = Ray::new(cam.from, dir + right * u + up * v, 0.0, f32::INFINITY);
-                    t.counts.eye_rays += 1;
-                    t.trace(&ray, 1)
+                    Ray::new(cam.from, dir + right * u + up * v, 0.0, f32::INFINITY)
                 })
                 .collect();
+            let row = t.trace_row(&eye);
             progress(1);
             (row, t.counts, t.counters, t.queries)
         })
@@ -543,18 +638,84 @@ fn render_with<C: Summable, S: Stage, Q: Queries<S>>(
     (rendered, rows.into_iter().map(|r| r.3).collect())
 }
 
+/// What shading needs of a hit: its material, normals turned to face the ray, and the
+/// points just above and below the surface where further rays start.
+struct Surface {
+    m: Material,
+    /// The ray's unit direction.
+    d: Vec3,
+    entering: bool,
+    ng: Vec3,
+    ns: Vec3,
+    p: Vec3,
+    eps: f32,
+    above: Vec3,
+}
+
 impl<S: Stage, C: Counters, Q: Queries<S>> Tracer<'_, S, C, Q> {
-    fn trace(&mut self, ray: &Ray, depth: u32) -> Vec3 {
+    /// The colours of a row's eye rays. The structure is asked for their hits all at once,
+    /// then for their shadow rays all at once, light by light, so that neighbouring rays can
+    /// be walked together ([`RenderSettings::packets`]); the rest of each ray tree is traced
+    /// ray by ray. The same colours as [`Tracer::trace`] of each ray.
+    fn trace_row(&mut self, eye: &[Ray]) -> Vec<Vec3> {
+        self.counts.eye_rays += eye.len() as u64;
+        let mut hits = vec![None; eye.len()];
+        self.queries
+            .closest_each(self.stage, eye, &mut hits, &mut self.counters);
+        let surfaces: Vec<Option<Surface>> = hits
+            .iter()
+            .zip(eye)
+            .map(|(h, ray)| h.as_ref().map(|h| self.surface(h, ray, 1)))
+            .collect();
         let scene = self.stage.scene();
+        let lights = scene.lights.len();
+        let mut shadows = Vec::new();
+        let mut slots = Vec::new();
+        for (l, light) in scene.lights.iter().enumerate() {
+            for (i, s) in surfaces.iter().enumerate() {
+                if let Some(s) = s {
+                    let to_light = light.position - s.above;
+                    if s.ns.dot(to_light) > 0.0 {
+                        shadows.push((s.above, to_light));
+                        slots.push(i * lights + l);
+                    }
+                }
+            }
+        }
+        let mut answers = vec![0.0; shadows.len()];
+        self.queries
+            .light_each(self.stage, &shadows, &mut answers, &mut self.counters);
+        // Lights a surface faces away from are never read.
+        let mut visibility = vec![0.0; eye.len() * lights];
+        for (&slot, a) in slots.iter().zip(answers) {
+            visibility[slot] = a;
+        }
+        surfaces
+            .iter()
+            .enumerate()
+            .map(|(i, s)| match s {
+                None => scene.background,
+                Some(s) => self.shade(s, 1, Some(&visibility[i * lights..(i + 1) * lights])),
+            })
+            .collect()
+    }
+
+    fn trace(&mut self, ray: &Ray, depth: u32) -> Vec3 {
         let Some(hit) = self.queries.closest(self.stage, ray, &mut self.counters) else {
-            return scene.background;
+            return self.stage.scene().background;
         };
+        let s = self.surface(&hit, ray, depth);
+        self.shade(&s, depth, None)
+    }
+
+    /// The surface `ray` hits at `hit`, counted as an eye or a secondary hit.
+    fn surface(&mut self, hit: &S::Hit, ray: &Ray, depth: u32) -> Surface {
         if depth == 1 {
             self.counts.eye_hits += 1;
         } else {
             self.counts.secondary_hits += 1;
         }
-        let (sp, m) = self.stage.surface(&hit, ray);
+        let (sp, m) = self.stage.surface(hit, ray);
         let d = ray.dir.normalize();
         let entering = d.dot(sp.geometric_normal) < 0.0;
         let (ng, ns) = if entering {
@@ -564,17 +725,46 @@ impl<S: Stage, C: Counters, Q: Queries<S>> Tracer<'_, S, C, Q> {
         };
         let p = sp.point;
         let eps = self.offset_scale + 2e-6 * p.abs().max_element();
-        let above = p + ng * eps;
+        Surface {
+            m,
+            d,
+            entering,
+            ng,
+            ns,
+            p,
+            eps,
+            above: p + ng * eps,
+        }
+    }
+
+    /// The colour of a ray that hit `surface`: its lights, the shadow rays' answers given
+    /// in `visibility` (one per light, read only for lights the surface faces) or asked here,
+    /// and its reflected and refracted rays.
+    fn shade(&mut self, surface: &Surface, depth: u32, visibility: Option<&[f32]>) -> Vec3 {
+        let scene = self.stage.scene();
+        let &Surface {
+            m,
+            d,
+            entering,
+            ng,
+            ns,
+            p,
+            eps,
+            above,
+        } = surface;
         let mut color = Vec3::ZERO;
-        for light in &scene.lights {
+        for (l, light) in scene.lights.iter().enumerate() {
             let to_light = light.position - above;
             if ns.dot(to_light) <= 0.0 {
                 continue;
             }
             self.counts.shadow_rays += 1;
-            let visibility = self
-                .queries
-                .light(self.stage, above, to_light, &mut self.counters);
+            let visibility = match visibility {
+                Some(v) => v[l],
+                None => self
+                    .queries
+                    .light(self.stage, above, to_light, &mut self.counters),
+            };
             if visibility <= 0.0 {
                 self.counts.shadow_hits += 1;
                 continue;
