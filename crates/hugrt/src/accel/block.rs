@@ -81,6 +81,100 @@ impl BlockRay {
     }
 }
 
+/// Eight rays as [`packet_lanes_avx2`] reads them: each ray's [`BlockRay`] numbers, lane by
+/// lane.
+#[derive(Clone, Copy)]
+pub struct BlockRays {
+    o: [[f32; 8]; 3],
+    rows: [[[f32; 8]; 3]; 2],
+}
+
+impl BlockRays {
+    /// The rays `rays` in lanes 0 to 7.
+    pub fn new(rays: &[BlockRay; 8]) -> Self {
+        BlockRays {
+            o: std::array::from_fn(|a| std::array::from_fn(|l| rays[l].o[a])),
+            rows: std::array::from_fn(|r| {
+                std::array::from_fn(|a| std::array::from_fn(|l| rays[l].rows[r][a]))
+            }),
+        }
+    }
+}
+
+/// [`lanes`] of each of eight rays: entry `r` is what `lanes(b, ray r)` finds, bit for bit.
+/// The block's triangles are met one at a time by the eight rays at once (AVX, a ray a lane),
+/// with the kernel's arithmetic in the kernel's order: the packet walk of the bvh tests a
+/// leaf's blocks this way for all the rays that reach it.
+///
+/// # Safety
+/// The processor must support AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+pub unsafe fn packet_lanes_avx2(b: &Block, rays: &BlockRays) -> [Lanes; 8] {
+    use std::arch::x86_64::*;
+    // SAFETY (the loads): each reads the eight `f32` of one `[f32; 8]`, unaligned.
+    let load = |x: &[f32; 8]| unsafe { _mm256_loadu_ps(x.as_ptr()) };
+    let o = [load(&rays.o[0]), load(&rays.o[1]), load(&rays.o[2])];
+    let row = |r: usize| [load(&rays.rows[r][0]), load(&rays.rows[r][1]), load(&rays.rows[r][2])];
+    let (rx, ry) = (row(0), row(1));
+    let s = |x: f32| _mm256_set1_ps(x);
+    // `r·p` as glam's `dot` sums it: `(r.x·p.x + r.y·p.y) + r.z·p.z`.
+    let dot = |r: &[__m256; 3], p: &[__m256; 3]| {
+        _mm256_add_ps(
+            _mm256_add_ps(_mm256_mul_ps(r[0], p[0]), _mm256_mul_ps(r[1], p[1])),
+            _mm256_mul_ps(r[2], p[2]),
+        )
+    };
+    let zero = _mm256_setzero_ps();
+    let mut out = [Lanes {
+        crossed: 0,
+        redo: 0,
+    }; 8];
+    for t in 0..LANES {
+        let vertex = |k: usize| {
+            [
+                _mm256_sub_ps(s(b.v[k][0][t]), o[0]),
+                _mm256_sub_ps(s(b.v[k][1][t]), o[1]),
+                _mm256_sub_ps(s(b.v[k][2][t]), o[2]),
+            ]
+        };
+        let p = [vertex(0), vertex(1), vertex(2)];
+        let (ax, ay) = (dot(&rx, &p[0]), dot(&ry, &p[0]));
+        let (bx, by) = (dot(&rx, &p[1]), dot(&ry, &p[1]));
+        let (cx, cy) = (dot(&rx, &p[2]), dot(&ry, &p[2]));
+        let u = _mm256_sub_ps(_mm256_mul_ps(cx, by), _mm256_mul_ps(cy, bx));
+        let v = _mm256_sub_ps(_mm256_mul_ps(ax, cy), _mm256_mul_ps(ay, cx));
+        let w = _mm256_sub_ps(_mm256_mul_ps(bx, ay), _mm256_mul_ps(by, ax));
+        macro_rules! any {
+            ($pred:ident) => {
+                _mm256_or_ps(
+                    _mm256_or_ps(
+                        _mm256_cmp_ps::<$pred>(u, zero),
+                        _mm256_cmp_ps::<$pred>(v, zero),
+                    ),
+                    _mm256_cmp_ps::<$pred>(w, zero),
+                )
+            };
+        }
+        let redo = _mm256_movemask_ps(any!(_CMP_EQ_OQ)) as u32;
+        let mixed = _mm256_and_ps(any!(_CMP_LT_OQ), any!(_CMP_GT_OQ));
+        let det = _mm256_add_ps(_mm256_add_ps(u, v), w);
+        let det_abs = _mm256_andnot_ps(s(-0.0), det);
+        // Neither zero nor infinite nor NaN (a lane of no triangle).
+        let det_ok = _mm256_and_ps(
+            _mm256_cmp_ps::<_CMP_LT_OQ>(det_abs, s(f32::INFINITY)),
+            _mm256_cmp_ps::<_CMP_GT_OQ>(det_abs, zero),
+        );
+        let crossed = _mm256_movemask_ps(_mm256_andnot_ps(mixed, det_ok)) as u32 & !redo;
+        for (r, lanes) in out.iter_mut().enumerate() {
+            lanes.crossed |= (crossed >> r & 1) << t;
+            lanes.redo |= (redo >> r & 1) << t;
+        }
+    }
+    out
+}
+
 /// Tests the block's four lanes against the ray, with the arithmetic of the target's fastest
 /// kernel.
 #[inline(always)]
@@ -235,6 +329,32 @@ mod tests {
                 }
             }
             prop_assert_eq!(lanes(&b, &br), portable);
+        }
+
+        /// The packet kernel finds for each of its eight rays what the kernel finds for it
+        /// alone.
+        #[test]
+        fn the_packet_kernel_equals_the_kernel_ray_by_ray(
+            tris in prop::collection::vec((point(), point(), point()), 0..=LANES),
+            rays in prop::collection::vec((point(), point()), 8),
+        ) {
+            let mut b = Block::EMPTY;
+            for (l, &(p, q, r)) in tris.iter().enumerate() {
+                b.set(l, &[p, q, r], l as u32);
+            }
+            let block_rays: [BlockRay; 8] = std::array::from_fn(|l| {
+                let (o, d) = rays[l];
+                let d = if d == Vec3::ZERO { Vec3::X } else { d };
+                BlockRay::new(&PreparedRay::new(&Ray::new(o, d, 0.0, f32::INFINITY)))
+            });
+            #[cfg(target_arch = "x86_64")]
+            if crate::accel::simd::available() {
+                // SAFETY: AVX2 is present.
+                let got = unsafe { packet_lanes_avx2(&b, &BlockRays::new(&block_rays)) };
+                for (r, ray) in block_rays.iter().enumerate() {
+                    prop_assert_eq!(got[r], lanes(&b, ray));
+                }
+            }
         }
     }
 }

@@ -19,7 +19,7 @@
 //! with coherent ray tracing", 2001) on Embree's four-wide nodes, with per-ray entry distances
 //! on the stack rather than one for the packet.
 
-use super::block::BlockRay;
+use super::block::{self, BlockRay, BlockRays};
 use super::{Bvh, LEAF, LEAF_START_BITS, NO_CHILD, Node, STACK, WIDTH};
 use crate::accel::packet::PACKET;
 use crate::accel::{Counters, HitSink, Primitives};
@@ -217,6 +217,7 @@ impl Bvh {
         // Rays whose sink has not stopped the walk.
         let mut live: u32 = (1 << n) - 1;
         let mut prepared: [Option<(PreparedRay, BlockRay)>; PACKET] = [None; PACKET];
+        let mut block_rays: Option<BlockRays> = None;
 
         // Left uninitialised, as the single walk's.
         let mut stack = [const { std::mem::MaybeUninit::<Entry>::uninit() }; STACK];
@@ -240,21 +241,73 @@ impl Bvh {
                 if child & LEAF != 0 {
                     let start = (child & ((1 << LEAF_START_BITS) - 1)) as usize;
                     let count = ((child & !LEAF) >> LEAF_START_BITS) as usize + 1;
-                    let mut todo = active;
-                    while todo != 0 {
-                        let l = todo.trailing_zeros() as usize;
-                        todo &= todo - 1;
-                        let ray = &rays[l];
-                        let p = prepared[l].get_or_insert_with(|| {
-                            let pr = PreparedRay::new(ray);
-                            (pr, BlockRay::new(&pr))
+                    if AVX2 && !self.indexed {
+                        // Every ray's set-up at the packet's first leaf: the blocks are met by
+                        // the eight lanes at once.
+                        let block_rays = block_rays.get_or_insert_with(|| {
+                            for (l, p) in prepared.iter_mut().enumerate().take(n) {
+                                p.get_or_insert_with(|| {
+                                    let pr = PreparedRay::new(&rays[l]);
+                                    (pr, BlockRay::new(&pr))
+                                });
+                            }
+                            let lanes: [BlockRay; PACKET] = std::array::from_fn(|l| {
+                                prepared[l.min(n - 1)].expect("prepared above").1
+                            });
+                            BlockRays::new(&lanes)
                         });
-                        let sink = &mut sinks[l];
-                        if self.test_leaf(start, count, prims, p, ray.tmin, sink, counters) {
-                            live &= !(1 << l);
-                            far[l] = f32::NEG_INFINITY;
-                        } else {
-                            far[l] = sink.tmax();
+                        let mut todo = active;
+                        for b in &self.blocks[start..start + count] {
+                            #[cfg(target_arch = "x86_64")]
+                            // SAFETY: `AVX2` is set only by `packet_avx2`, run where AVX2 is.
+                            let found = unsafe { block::packet_lanes_avx2(b, block_rays) };
+                            #[cfg(not(target_arch = "x86_64"))]
+                            let found: [block::Lanes; PACKET] = unreachable!();
+                            let mut each = todo;
+                            while each != 0 {
+                                let l = each.trailing_zeros() as usize;
+                                each &= each - 1;
+                                let ray = &prepared[l].as_ref().expect("prepared above").0;
+                                if self.finish_block(
+                                    b,
+                                    found[l],
+                                    prims,
+                                    ray,
+                                    rays[l].tmin,
+                                    &mut sinks[l],
+                                    counters,
+                                ) {
+                                    todo &= !(1 << l);
+                                    live &= !(1 << l);
+                                    far[l] = f32::NEG_INFINITY;
+                                }
+                            }
+                            if todo == 0 {
+                                break;
+                            }
+                        }
+                        while todo != 0 {
+                            let l = todo.trailing_zeros() as usize;
+                            todo &= todo - 1;
+                            far[l] = sinks[l].tmax();
+                        }
+                    } else {
+                        let mut todo = active;
+                        while todo != 0 {
+                            let l = todo.trailing_zeros() as usize;
+                            todo &= todo - 1;
+                            let ray = &rays[l];
+                            let p = prepared[l].get_or_insert_with(|| {
+                                let pr = PreparedRay::new(ray);
+                                (pr, BlockRay::new(&pr))
+                            });
+                            let sink = &mut sinks[l];
+                            if self.test_leaf(start, count, prims, p, ray.tmin, sink, counters) {
+                                live &= !(1 << l);
+                                far[l] = f32::NEG_INFINITY;
+                            } else {
+                                far[l] = sink.tmax();
+                            }
                         }
                     }
                     if live == 0 {

@@ -29,7 +29,23 @@ impl Bvh {
         sink: &mut S,
         counters: &mut C,
     ) -> bool {
-        let lanes = block::lanes(b, bray);
+        self.finish_block(b, block::lanes(b, bray), prims, ray, tmin, sink, counters)
+    }
+
+    /// [`Bvh::test_block`] after its edge functions: `lanes` is what [`block::lanes`] finds
+    /// for `ray` (or the packet kernel, bit for bit the same).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    pub(super) fn finish_block<P: Primitives, C: Counters, S: HitSink>(
+        &self,
+        b: &Block,
+        lanes: block::Lanes,
+        prims: &P,
+        ray: &PreparedRay,
+        tmin: f32,
+        sink: &mut S,
+        counters: &mut C,
+    ) -> bool {
         for &id in &b.ids {
             if id != EMPTY_LANE {
                 counters.prim_test(0);
