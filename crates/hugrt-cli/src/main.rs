@@ -116,8 +116,8 @@ struct RenderArgs {
     #[command(flatten)]
     view: ViewArgs,
     /// Walk groups of 8 neighbouring eye rays, and their shadow rays to each light,
-    /// together: auto, where a group looks coherent; on, every group; off, every ray alone.
-    /// The image is the same either way.
+    /// together: auto, where a group looks coherent and the structure's packet walk pays (the
+    /// bvh's); on, every group; off, every ray alone. The image is the same either way.
     #[arg(long, default_value = "auto", value_parser = clap::builder::PossibleValuesParser::new(Packets::NAMES).map(|s| s.parse::<Packets>().expect("a listed mode")))]
     packets: Packets,
 }
@@ -157,7 +157,8 @@ struct TraceArgs {
     counters: bool,
     /// Walk groups of 8 neighbouring rays together (closest and any hits): auto, where a
     /// group looks coherent (directions within 11° in one octant: a camera's rays, a
-    /// light's); on, every group; off, every ray alone. The hits are the same either way.
+    /// light's) and the structure's packet walk pays (the bvh's); on, every group, in every
+    /// structure; off, every ray alone. The hits are the same either way.
     #[arg(long, default_value = "auto", value_parser = clap::builder::PossibleValuesParser::new(Packets::NAMES).map(|s| s.parse::<Packets>().expect("a listed mode")))]
     packets: Packets,
 }
@@ -253,8 +254,9 @@ struct BenchArgs {
     #[arg(short, long)]
     quiet: bool,
     /// Packets for camera and Whitted rays (repeatable: each structure is measured with each
-    /// mode, e.g. `--packets auto --packets off`): auto, groups of 8 neighbouring rays that
-    /// look coherent walk together; on, every group; off, every ray alone.
+    /// mode, e.g. `--packets on --packets off`): auto, groups of 8 neighbouring rays that
+    /// look coherent walk together where the structure's packet walk pays (the bvh's); on,
+    /// every group, in every structure; off, every ray alone.
     #[arg(long = "packets", default_value = "auto", value_parser = clap::builder::PossibleValuesParser::new(Packets::NAMES).map(|s| s.parse::<Packets>().expect("a listed mode")))]
     packets: Vec<Packets>,
 }

@@ -4,6 +4,7 @@ mod common;
 
 use common::*;
 use proptest::prelude::*;
+use rand::Rng;
 
 /// Every structure against brute force on `n_rays` awkward rays and an eighth as many in
 /// coherent groups of eight, alone and in packets ([`hugrt::fuzzing::assert_packets_agree`]).
@@ -160,4 +161,57 @@ fn hug_variants_build_what_they_name() {
     assert!(stat(&room, fig9, "partial_insertions") >= 10.0);
     let contained = "hug:filter=levels,min_cluster=1,loose=1e30,cluster=graph,alpha=0";
     assert_eq!(stat(&room, contained, "partial_insertions"), 0.0);
+}
+
+/// Packets whose rays' slopes along the packet's major axis are steep, over a scene a
+/// thousand times its size from the world origin. A grid's packet walk finds a steep ray's
+/// cells from the major axis' coordinates, whose rounding (an ulp of the offset) the slope
+/// multiplies, past the scene's margin: each ray's rectangle of cells must be widened by that
+/// much, or cells on its path go untested.
+#[test]
+fn steep_rays_in_packets_far_from_the_world_origin() {
+    let offset = hugrt::geometry::Vec3::splat(1000.0);
+    let mut r = rng(17);
+    let shapes: Vec<hugrt::geometry::Shape> = (0..3000)
+        .map(|_| {
+            let c = offset + v3(&mut r, 0.0, 1.0);
+            let s = 0.02;
+            hugrt::geometry::Shape::Triangle([
+                c + v3(&mut r, -s, s),
+                c + v3(&mut r, -s, s),
+                c + v3(&mut r, -s, s),
+            ])
+        })
+        .collect();
+    let scene = scene_of(shapes);
+    let mut rays = Vec::new();
+    for _ in 0..400 {
+        // The first ray along x, from outside the box; seven steep along y through it.
+        let through = offset + v3(&mut r, 0.0, 1.0);
+        let d0 = hugrt::geometry::Vec3::new(1.0, 0.01, 0.01);
+        rays.push(hugrt::geometry::Ray::new(
+            through - d0 * 2.0,
+            d0,
+            0.0,
+            f32::INFINITY,
+        ));
+        for _ in 0..7 {
+            let p = offset + v3(&mut r, 0.0, 1.0);
+            let d = hugrt::geometry::Vec3::new(
+                r.random_range(1e-4..1e-3),
+                1.0,
+                r.random_range(1e-4..1e-3),
+            );
+            rays.push(hugrt::geometry::Ray::new(
+                p - d * 2.0,
+                d,
+                0.0,
+                f32::INFINITY,
+            ));
+        }
+    }
+    let specs: Vec<String> = ["grid", "grid:density=20", "hug", "rgrid:maxp=2", "octree"]
+        .map(String::from)
+        .to_vec();
+    assert_all_agree(&scene, &specs, &rays);
 }

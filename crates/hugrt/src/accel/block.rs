@@ -116,7 +116,13 @@ pub unsafe fn packet_lanes_avx2(b: &Block, rays: &BlockRays) -> [Lanes; 8] {
     // SAFETY (the loads): each reads the eight `f32` of one `[f32; 8]`, unaligned.
     let load = |x: &[f32; 8]| unsafe { _mm256_loadu_ps(x.as_ptr()) };
     let o = [load(&rays.o[0]), load(&rays.o[1]), load(&rays.o[2])];
-    let row = |r: usize| [load(&rays.rows[r][0]), load(&rays.rows[r][1]), load(&rays.rows[r][2])];
+    let row = |r: usize| {
+        [
+            load(&rays.rows[r][0]),
+            load(&rays.rows[r][1]),
+            load(&rays.rows[r][2]),
+        ]
+    };
     let (rx, ry) = (row(0), row(1));
     let s = |x: f32| _mm256_set1_ps(x);
     // `r·p` as glam's `dot` sums it: `(r.x·p.x + r.y·p.y) + r.z·p.z`.

@@ -265,6 +265,10 @@ pub trait Accel: Sized + Send + Sync {
     const NAME: &'static str;
     /// The structure's settings: its defaults ([`Default`]) and the table of its spec's keys.
     type Settings: Settings;
+    /// Whether the structure's packet walk ([`Accel::query_packet`]) is faster than its walk
+    /// of one ray on coherent rays, as measured (`docs/measurements.md`, "Packets"): where it
+    /// is not, [`Packets::Auto`] walks every ray alone.
+    const PACKETS_PAY: bool = false;
 
     /// Builds the structure with typed settings, e.g. `Bvh::with_settings(&scene,
     /// &BvhSettings { leaf: 4, ..Default::default() })`: an error names a value out of its
@@ -557,7 +561,7 @@ fn first_hits<A: Accel, P: Primitives, C: Counters, S: HitSink>(
         hit(&s)
     };
     for (group, answers) in rays.chunks(PACKET).zip(out.chunks_mut(PACKET)) {
-        if !packets.walk_together(group) {
+        if !packets.walk_together(group, A::PACKETS_PAY) {
             for (ray, answer) in group.iter().zip(answers) {
                 *answer = alone(ray, counters);
             }

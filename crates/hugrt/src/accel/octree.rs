@@ -114,6 +114,16 @@ impl Accel for Octree {
         self.cut.grids.query(prims, ray, sink, counters);
     }
 
+    fn query_packet<P: Primitives, C: Counters, S: HitSink>(
+        &self,
+        prims: &P,
+        rays: &[Ray],
+        sinks: &mut [S],
+        counters: &mut C,
+    ) {
+        self.cut.grids.query_packet(prims, rays, sinks, counters);
+    }
+
     fn reach(&self) -> &crate::accel::Reach {
         self.cut.grids.store.reach()
     }

@@ -11,8 +11,9 @@
 //!
 //! [`Packets`] says when to use them: `auto` walks together the rays of a group of
 //! [`PACKET`] neighbours in the caller's order that look coherent ([`coherent`]), so that a
-//! camera's rays or a light's, written by any tool, qualify; `on` walks every group as a
-//! packet; `off` walks every ray alone.
+//! camera's rays or a light's, written by any tool, qualify, through the structures whose
+//! packet walk measures faster than one ray at a time ([`super::Accel::PACKETS_PAY`]); `on`
+//! walks every group as a packet; `off` walks every ray alone.
 
 use super::Ray;
 
@@ -23,7 +24,8 @@ pub const PACKET: usize = 8;
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Packets {
     /// Groups of [`PACKET`] neighbouring rays that look coherent ([`coherent`]) as packets, the
-    /// others one at a time.
+    /// others one at a time, with structures whose packet walk is faster than their walk of
+    /// one ray ([`super::Accel::PACKETS_PAY`]); every ray alone with the others.
     #[default]
     Auto,
     /// Every group of [`PACKET`] neighbouring rays as a packet, coherent or not.
@@ -36,11 +38,12 @@ impl Packets {
     /// Every value's name, as `str::parse` reads it.
     pub const NAMES: &[&str] = &["auto", "on", "off"];
 
-    /// Whether the group `rays` is walked as a packet.
+    /// Whether the group `rays` is walked as a packet by a structure whose packet walk pays
+    /// or not (`pays`).
     #[inline]
-    pub fn walk_together(self, rays: &[Ray]) -> bool {
+    pub fn walk_together(self, rays: &[Ray], pays: bool) -> bool {
         match self {
-            Packets::Auto => coherent(rays),
+            Packets::Auto => pays && coherent(rays),
             Packets::On => rays.len() > 1,
             Packets::Off => false,
         }

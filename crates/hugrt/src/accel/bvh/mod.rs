@@ -284,6 +284,7 @@ impl Bvh {
 
 impl Accel for Bvh {
     const NAME: &'static str = "bvh";
+    const PACKETS_PAY: bool = true;
     type Settings = BvhSettings;
 
     fn build_checked<P: Primitives>(prims: &P, settings: &BvhSettings) -> Result<Self, SpecError> {

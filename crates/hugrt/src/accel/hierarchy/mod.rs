@@ -45,6 +45,7 @@
 mod build;
 mod cells;
 mod header;
+mod packet;
 mod plan;
 mod stats;
 mod subdivide;

@@ -187,12 +187,43 @@ impl GridHierarchy {
         false
     }
 
-    /// Tests the references of one cell: its objects (triangles first, eight at a time when
-    /// [`Self::simd`] allows, in store order either way), then walks the grids it references.
-    /// Returns `true` when the sink stops the walk.
+    /// Tests the references of one cell: its objects ([`Self::test_objects`]), then walks
+    /// the grids it references. Returns `true` when the sink stops the walk.
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     pub(super) fn test_cell<P: Primitives, C: Counters, S: HitSink>(
+        &self,
+        refs: &[u32],
+        prims: &P,
+        ray: &PreparedRay,
+        tmin: f32,
+        sink: &mut S,
+        mail: &mut Mailbox,
+        counters: &mut C,
+        level: usize,
+    ) -> bool {
+        if self.test_objects::<P, C, S>(refs, prims, ray, tmin, sink, mail, counters, level) {
+            return true;
+        }
+        for &r in refs {
+            if r & GRID_TAG != 0 {
+                let sub = r & !GRID_TAG;
+                if mail.first_grid_visit(sub)
+                    && self.walk::<P, C, S>(sub, prims, ray, tmin, sink, mail, counters)
+                {
+                    return true;
+                }
+            }
+        }
+        false
+    }
+
+    /// Tests the objects of one cell, not the grids it references: triangles first, eight at
+    /// a time when [`Self::simd`] allows, in store order either way, each object once per ray
+    /// (`mail`). Returns `true` when the sink stops the walk.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    pub(super) fn test_objects<P: Primitives, C: Counters, S: HitSink>(
         &self,
         refs: &[u32],
         prims: &P,
@@ -235,16 +266,7 @@ impl GridHierarchy {
             }
         }
         for &r in rest {
-            if r & GRID_TAG != 0 {
-                let sub = r & !GRID_TAG;
-                if mail.first_grid_visit(sub)
-                    && self.walk::<P, C, S>(sub, prims, ray, tmin, sink, mail, counters)
-                {
-                    return true;
-                }
-                continue;
-            }
-            if !mail.first_visit(r) {
+            if r & GRID_TAG != 0 || !mail.first_visit(r) {
                 continue;
             }
             counters.prim_test(level);

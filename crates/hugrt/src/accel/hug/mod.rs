@@ -427,6 +427,16 @@ impl Accel for Hug {
         self.grids.query(prims, ray, sink, counters);
     }
 
+    fn query_packet<P: Primitives, C: Counters, S: HitSink>(
+        &self,
+        prims: &P,
+        rays: &[Ray],
+        sinks: &mut [S],
+        counters: &mut C,
+    ) {
+        self.grids.query_packet(prims, rays, sinks, counters);
+    }
+
     fn reach(&self) -> &crate::accel::Reach {
         self.grids.store.reach()
     }

@@ -1,0 +1,415 @@
+//! The packet walk of a grid hierarchy ([`crate::accel::packet`]): the coherent grid
+//! traversal of Wald, Ize, Kensler, Knoll and Parker ("Ray tracing animated scenes using
+//! coherent grid traversal", SIGGRAPH 2006), on every grid of the hierarchy.
+//!
+//! A packet crosses a grid slice by slice along the major axis of its first ray. In each slice
+//! every ray's segment is bounded by the slice's two planes and by the ray's own interval in
+//! the grid, `[t0, nearest hit so far]`; the segment's two ends give the rectangle of cells it
+//! can cross in that slice. The packet visits the union of the rectangles, and each cell is
+//! tested for the rays whose own rectangle holds it: the cell is fetched once for all of them.
+//! A grid a cell references is entered by the packet, with the rays that reach the cell and
+//! have not walked that grid yet (each ray walks a grid once, as alone: [`Mailbox`]).
+//!
+//! Each ray thus tests every cell its own 3D-DDA would visit where a hit could still be
+//! nearer, and perhaps a few more. The rectangles are widened by [`WIDEN`] of the magnitudes
+//! involved, far more than the rounding of a segment's ends, so no cell of the exact path is
+//! missed; the cells' objects were inserted with the scene's margin, which covers the single
+//! walk's own rounding. The nearest hit does not depend on which cells are tested beyond the
+//! needed ones, nor on their order ([`crate::accel::Hit::improves`]).
+//!
+//! The slice walk needs every ray's direction in one octant and not parallel to the major
+//! axis; a grid where the packet's rays do not agree so (in a sub-grid's turned frame they
+//! may not) is walked ray by ray.
+
+use super::{GRID_TAG, GridHierarchy, NO_FRAME};
+use crate::accel::packet::PACKET;
+use crate::accel::{Counters, HitSink, Mailbox, Primitives};
+use crate::geometry::{PreparedRay, Ray, Vec3};
+
+/// How far each ray's rectangle of cells is widened in a slice: this fraction of the largest
+/// magnitude among its origin, the grid's box and its travel `|t|·|d|` (16 ulps of it, where
+/// a segment end's rounding is a few).
+const WIDEN: f32 = 1.0 / (1 << 19) as f32;
+
+/// `1 + 2·gamma(3)`, as the single walk's (`walk::ROBUST_FAR`).
+const ROBUST_FAR: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
+
+type Lanes = [f32; PACKET];
+
+/// The least of a row of lanes.
+fn min_of(x: &Lanes) -> f32 {
+    x.iter().fold(f32::INFINITY, |a, &b| a.min(b))
+}
+
+/// The greatest of a row of lanes.
+fn max_of(x: &Lanes) -> f32 {
+    x.iter().fold(f32::NEG_INFINITY, |a, &b| a.max(b))
+}
+
+/// What a packet carries from grid to grid: its prepared rays and, per ray, its sink, its
+/// mailbox and whether its sink has stopped the walk.
+pub(super) struct Packet<'a, S> {
+    rays: &'a [PreparedRay; PACKET],
+    sinks: &'a mut [S],
+    mail: &'a mut [Mailbox; PACKET],
+    /// Rays whose sink has not stopped the walk.
+    live: u32,
+}
+
+impl GridHierarchy {
+    /// The query of a packet ([`crate::accel::Accel::query_packet`]): up to [`PACKET`]
+    /// traceable, near rays, each with its own sink.
+    pub fn query_packet<P: Primitives, C: Counters, S: HitSink>(
+        &self,
+        prims: &P,
+        rays: &[Ray],
+        sinks: &mut [S],
+        counters: &mut C,
+    ) {
+        let n = rays.len().min(sinks.len()).min(PACKET);
+        if n == 0 || self.store.is_empty() {
+            return;
+        }
+        let prepared: [PreparedRay; PACKET] =
+            std::array::from_fn(|l| PreparedRay::new(&rays[l.min(n - 1)]));
+        let mut mail: [Mailbox; PACKET] = std::array::from_fn(|_| Mailbox::default());
+        let mut packet = Packet {
+            rays: &prepared,
+            sinks: &mut sinks[..n],
+            mail: &mut mail,
+            live: (1 << n) - 1,
+        };
+        self.walk_packet(0, prims, &mut packet, (1 << n) - 1, counters);
+    }
+
+    /// Walks grid `g` with the rays of `mask` (and still live): compiled for AVX2 where the
+    /// processor has it, so that the lane loops of [`Self::slices`] are one register each.
+    fn walk_packet<P: Primitives, C: Counters, S: HitSink>(
+        &self,
+        g: u32,
+        prims: &P,
+        packet: &mut Packet<'_, S>,
+        mask: u32,
+        counters: &mut C,
+    ) {
+        #[cfg(target_arch = "x86_64")]
+        if self.simd {
+            // SAFETY: `simd` is set only where AVX2 is present (`build`), all the function's
+            // attribute enables.
+            unsafe { self.walk_packet_avx2(g, prims, packet, mask, counters) };
+            return;
+        }
+        self.slices(g, prims, packet, mask, counters);
+    }
+
+    /// [`Self::slices`] compiled for AVX2.
+    ///
+    /// # Safety
+    /// The processor must support AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn walk_packet_avx2<P: Primitives, C: Counters, S: HitSink>(
+        &self,
+        g: u32,
+        prims: &P,
+        packet: &mut Packet<'_, S>,
+        mask: u32,
+        counters: &mut C,
+    ) {
+        self.slices(g, prims, packet, mask, counters);
+    }
+
+    /// The slice walk of grid `g` (module documentation), or the rays of `mask` one at a time
+    /// where they do not share an octant and a major axis.
+    // Lane loops read several rows by one index, as the compiler vectorizes them.
+    #[allow(clippy::needless_range_loop)]
+    #[inline(always)]
+    fn slices<P: Primitives, C: Counters, S: HitSink>(
+        &self,
+        g: u32,
+        prims: &P,
+        packet: &mut Packet<'_, S>,
+        mask: u32,
+        counters: &mut C,
+    ) {
+        let h = &self.grids[g as usize];
+        let level = h.level as usize;
+        let mask = mask & packet.live;
+        if mask == 0 {
+            return;
+        }
+        // Each ray in the grid's frame; lanes outside `mask` repeat the first ray of it.
+        let first = mask.trailing_zeros() as usize;
+        let frame = (h.frame != NO_FRAME).then(|| &self.frames[h.frame as usize]);
+        let in_frame = |l: usize| {
+            let l = if mask >> l & 1 != 0 { l } else { first };
+            let r = &packet.rays[l].ray;
+            match frame {
+                None => (r.origin, r.dir),
+                Some(f) => (f.point(r.origin), f.dir(r.dir)),
+            }
+        };
+        let od: [(Vec3, Vec3); PACKET] = std::array::from_fn(in_frame);
+        let d0 = od[first].1;
+        let k = d0.abs().max_position();
+        let octant = d0.is_negative_bitmask();
+        let agree = od
+            .iter()
+            .all(|(_, d)| d.is_negative_bitmask() == octant && d[k] != 0.0);
+        if !agree || mask.count_ones() == 1 {
+            self.walk_alone(g, prims, packet, mask, counters);
+            return;
+        }
+        let (u, v) = ((k + 1) % 3, (k + 2) % 3);
+        let lanes = |f: &dyn Fn(usize) -> f32| -> Lanes { std::array::from_fn(f) };
+        let ok = lanes(&|l| od[l].0[k]);
+        let ou = lanes(&|l| od[l].0[u]);
+        let ov = lanes(&|l| od[l].0[v]);
+        let dk = lanes(&|l| od[l].1[k]);
+        let su = lanes(&|l| od[l].1[u] / od[l].1[k]);
+        let sv = lanes(&|l| od[l].1[v] / od[l].1[k]);
+        // Each ray's interval in the grid, by the single walk's slab test.
+        let mut t0 = [0f32; PACKET];
+        let mut t1 = [0f32; PACKET];
+        let mut rays = 0u32;
+        for (l, (o, d)) in od.iter().enumerate() {
+            if mask >> l & 1 == 0 {
+                continue;
+            }
+            counters.box_test(level);
+            let inv = Vec3::ONE / *d;
+            let ta = (h.min - *o) * inv;
+            let tb = (h.max - *o) * inv;
+            t0[l] = packet.rays[l].ray.tmin.max(ta.min(tb).max_element());
+            t1[l] = packet.sinks[l]
+                .tmax()
+                .min(ta.max(tb).min_element() * ROBUST_FAR);
+            rays |= ((t0[l] <= t1[l]) as u32) << l;
+        }
+        if rays == 0 {
+            return;
+        }
+        let magnitude = h.min.abs().max(h.max.abs()).max_element();
+        let widen = lanes(&|l| {
+            let travel = t0[l].abs().max(t1[l].abs()) * od[l].1.abs().max_element();
+            WIDEN * od[l].0.abs().max_element().max(magnitude).max(travel)
+        });
+        let forward = d0[k] > 0.0;
+        let (min_u, min_v) = (h.min[u], h.min[v]);
+        let (inv_u, inv_v) = (h.inv_size[u], h.inv_size[v]);
+        let (top_u, top_v) = ((h.res[u] - 1) as f32, (h.res[v] - 1) as f32);
+        let stride = [
+            1usize,
+            h.res[0] as usize,
+            h.res[0] as usize * h.res[1] as usize,
+        ];
+        // A coordinate's cell, clamped to the grid, as `GridHeader::coord` finds it
+        // (truncation is the floor of the non-negative values that survive the clamp).
+        let cell =
+            |x: f32, min: f32, inv: f32, top: f32| ((x - min) * inv).max(0.0).min(top) as i32;
+        // Each ray's interval ends at its nearest hit so far: `-inf` for rays not walking
+        // this grid, whose segments are then empty.
+        let mut end = [f32::NEG_INFINITY; PACKET];
+        for (l, e) in end.iter_mut().enumerate() {
+            if rays >> l & 1 != 0 {
+                *e = t1[l];
+            }
+        }
+        // The segments along the major axis, `[t0, end]`, widened: `[+inf, -inf]` where empty.
+        let segments = |end: &Lanes| -> (Lanes, Lanes) {
+            let mut lo = [0f32; PACKET];
+            let mut hi = [0f32; PACKET];
+            for l in 0..PACKET {
+                let a = ok[l] + t0[l] * dk[l];
+                let b = ok[l] + end[l] * dk[l];
+                let keep = end[l] >= t0[l];
+                lo[l] = if keep {
+                    a.min(b) - widen[l]
+                } else {
+                    f32::INFINITY
+                };
+                hi[l] = if keep {
+                    a.max(b) + widen[l]
+                } else {
+                    f32::NEG_INFINITY
+                };
+            }
+            (lo, hi)
+        };
+        let (lo, hi) = segments(&end);
+        let first_slice = h.coord(k, if forward { min_of(&lo) } else { max_of(&hi) });
+        let last_slice = h.coord(k, if forward { max_of(&hi) } else { min_of(&lo) });
+        let mut slice = first_slice;
+        loop {
+            let plane_lo = h.min[k] + slice as f32 * h.size[k];
+            let plane_hi = plane_lo + h.size[k];
+            let (lo, hi) = segments(&end);
+            // Each ray's rectangle of cells in this slice; an empty one where the ray is not
+            // in the slice.
+            let mut r = [[0i32; PACKET]; 4];
+            let mut in_slice = 0u32;
+            let mut beyond = 0u32;
+            for l in 0..PACKET {
+                let (c0, c1) = (lo[l].max(plane_lo), hi[l].min(plane_hi));
+                let (u0, u1) = (ou[l] + (c0 - ok[l]) * su[l], ou[l] + (c1 - ok[l]) * su[l]);
+                let (v0, v1) = (ov[l] + (c0 - ok[l]) * sv[l], ov[l] + (c1 - ok[l]) * sv[l]);
+                let inside = c0 <= c1;
+                r[0][l] = if inside {
+                    cell(u0.min(u1) - widen[l], min_u, inv_u, top_u)
+                } else {
+                    i32::MAX
+                };
+                r[1][l] = if inside {
+                    cell(v0.min(v1) - widen[l], min_v, inv_v, top_v)
+                } else {
+                    i32::MAX
+                };
+                r[2][l] = if inside {
+                    cell(u0.max(u1) + widen[l], min_u, inv_u, top_u)
+                } else {
+                    -1
+                };
+                r[3][l] = if inside {
+                    cell(v0.max(v1) + widen[l], min_v, inv_v, top_v)
+                } else {
+                    -1
+                };
+                in_slice |= (inside as u32) << l;
+                let ahead = if forward {
+                    hi[l] > plane_hi
+                } else {
+                    lo[l] < plane_lo
+                };
+                beyond |= (ahead as u32) << l;
+            }
+            if in_slice != 0 {
+                let u_lo = *r[0].iter().min().expect("lanes") as u32;
+                let v_lo = *r[1].iter().min().expect("lanes") as u32;
+                let u_hi = *r[2].iter().max().expect("lanes") as u32;
+                let v_hi = *r[3].iter().max().expect("lanes") as u32;
+                for cv in v_lo..=v_hi {
+                    for cu in u_lo..=u_hi {
+                        let mut at = [0usize; 3];
+                        (at[k], at[u], at[v]) = (slice as usize, cu as usize, cv as usize);
+                        let idx = h.first_cell as usize
+                            + at[0] * stride[0]
+                            + at[1] * stride[1]
+                            + at[2] * stride[2];
+                        // Most cells are empty: their rays are not worth finding.
+                        let Some((start, stop)) = self.cells.range(idx) else {
+                            continue;
+                        };
+                        let (fu, fv) = (cu as i32, cv as i32);
+                        let mut here = 0u32;
+                        for l in 0..PACKET {
+                            let inside =
+                                r[0][l] <= fu && fu <= r[2][l] && r[1][l] <= fv && fv <= r[3][l];
+                            here |= (inside as u32) << l;
+                        }
+                        here &= packet.live;
+                        if here == 0 {
+                            continue;
+                        }
+                        for _ in 0..here.count_ones() {
+                            counters.cell_visit(level);
+                        }
+                        self.test_cell_packet(prims, packet, here, start, stop, level, counters);
+                        let mut each = here;
+                        while each != 0 {
+                            let l = each.trailing_zeros() as usize;
+                            each &= each - 1;
+                            end[l] = if packet.live >> l & 1 != 0 {
+                                end[l].min(packet.sinks[l].tmax())
+                            } else {
+                                f32::NEG_INFINITY
+                            };
+                        }
+                    }
+                }
+            }
+            if beyond == 0 || slice == last_slice {
+                break;
+            }
+            slice = if forward { slice + 1 } else { slice - 1 };
+        }
+    }
+
+    /// Tests the references `start..end` of one cell for the rays of `here`: its objects ray
+    /// by ray, then the grids it references with the rays that have not walked them.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn test_cell_packet<P: Primitives, C: Counters, S: HitSink>(
+        &self,
+        prims: &P,
+        packet: &mut Packet<'_, S>,
+        here: u32,
+        start: usize,
+        end: usize,
+        level: usize,
+        counters: &mut C,
+    ) {
+        let refs = &self.refs[start..end];
+        let mut each = here & packet.live;
+        while each != 0 {
+            let l = each.trailing_zeros() as usize;
+            each &= each - 1;
+            let ray = &packet.rays[l];
+            if self.test_objects::<P, C, S>(
+                refs,
+                prims,
+                ray,
+                ray.ray.tmin,
+                &mut packet.sinks[l],
+                &mut packet.mail[l],
+                counters,
+                level,
+            ) {
+                packet.live &= !(1 << l);
+            }
+        }
+        for &r in refs {
+            if r & GRID_TAG == 0 {
+                continue;
+            }
+            let sub = r & !GRID_TAG;
+            let mut enter = 0u32;
+            let mut each = here & packet.live;
+            while each != 0 {
+                let l = each.trailing_zeros() as usize;
+                each &= each - 1;
+                enter |= (packet.mail[l].first_grid_visit(sub) as u32) << l;
+            }
+            if enter != 0 {
+                self.walk_packet(sub, prims, packet, enter, counters);
+            }
+        }
+    }
+
+    /// Grid `g` walked by each ray of `mask` on its own (the single walk).
+    fn walk_alone<P: Primitives, C: Counters, S: HitSink>(
+        &self,
+        g: u32,
+        prims: &P,
+        packet: &mut Packet<'_, S>,
+        mask: u32,
+        counters: &mut C,
+    ) {
+        let mut each = mask & packet.live;
+        while each != 0 {
+            let l = each.trailing_zeros() as usize;
+            each &= each - 1;
+            let ray = &packet.rays[l];
+            if self.walk::<P, C, S>(
+                g,
+                prims,
+                ray,
+                ray.ray.tmin,
+                &mut packet.sinks[l],
+                &mut packet.mail[l],
+                counters,
+            ) {
+                packet.live &= !(1 << l);
+            }
+        }
+    }
+}
