@@ -572,7 +572,7 @@ impl TraceArgs {
                 }
             };
             let (acc, build_s) = build(&scene, &accel)?;
-            let traced = hugrt::batch::trace_timed(
+            let traced = hugrt::batch::trace_scene_timed(
                 &scene,
                 &acc,
                 &ray_list,

@@ -91,6 +91,7 @@ pub struct BlockRays {
 
 impl BlockRays {
     /// The rays `rays` in lanes 0 to 7.
+    #[inline]
     pub fn new(rays: &[BlockRay; 8]) -> Self {
         BlockRays {
             o: std::array::from_fn(|a| std::array::from_fn(|l| rays[l].o[a])),

@@ -79,6 +79,7 @@ impl std::fmt::Display for Packets {
 /// the same octant as the first and within [`COHERENT_COS`] of it. Rays from one point through
 /// neighbouring pixels qualify, and so do rays from neighbouring points to one light; rays in
 /// random directions do not. Only a matter of speed: packets give every ray its own answer.
+#[inline]
 pub fn coherent(rays: &[Ray]) -> bool {
     let Some(first) = rays.first() else {
         return false;

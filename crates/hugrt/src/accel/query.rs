@@ -68,6 +68,7 @@ pub struct Closest {
 }
 
 impl Closest {
+    #[inline]
     pub fn new(tmax: f32) -> Self {
         Closest {
             t: tmax,
@@ -75,6 +76,7 @@ impl Closest {
         }
     }
 
+    #[inline]
     pub fn hit(&self) -> Option<Hit> {
         (self.prim != u32::MAX).then_some(Hit {
             t: self.t,
@@ -109,10 +111,12 @@ pub struct AnyHit {
 }
 
 impl AnyHit {
+    #[inline]
     pub fn new(tmax: f32) -> Self {
         AnyHit { tmax, hit: None }
     }
 
+    #[inline]
     pub fn hit(&self) -> Option<Hit> {
         self.hit
     }

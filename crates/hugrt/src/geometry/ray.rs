@@ -11,6 +11,7 @@ pub struct Ray {
 }
 
 impl Ray {
+    #[inline]
     pub fn new(origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> Self {
         Ray {
             origin,
@@ -24,6 +25,7 @@ impl Ray {
     /// most [`Ray::MAX_COMPONENT`] in magnitude, and an interval `[tmin, tmax]` that is not
     /// empty or NaN (`tmax` may be infinite). Every query returns no hit for other rays,
     /// rather than a garbage hit or a walk that never ends.
+    #[inline]
     pub fn is_traceable(&self) -> bool {
         let within = |v: Vec3| v.is_finite() && v.abs().max_element() <= Self::MAX_COMPONENT;
         within(self.origin)
