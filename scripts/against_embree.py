@@ -4,7 +4,8 @@
 usage: against_embree.py --peer DIR [--hugrt BIN] [--work DIR] [--rounds 3] [--threads 2]
                          [--accel SPEC[@PACKETS]]... SCENE.ply...
 
-DIR is a built embree-peer (its `embree_peer` and `gen_rays.py`). For each binary PLY scene it
+DIR is a built embree-peer (its `embree_peer` and `gen_rays.py`). For each binary PLY scene (not
+gzipped: embree-peer reads plain files; `hugrt gen KIND -o KIND.ply` writes the generated ones) it
 writes three rays files: 1024x1024 camera rays and 1,000,000 incoherent rays (gen_rays.py), and
 shadow rays from Embree's camera hits to a point light above the scene (any-hit, t in
 [1e-4, 1], in pixel order). Each round runs Embree on each file, then `hugrt trace` with each
