@@ -7,7 +7,7 @@ mod arrays;
 mod render;
 
 use arrays::{Rays, ints_n3, reals_n3};
-use hugrt::accel::{AnyAccel, Hit, NoCounters};
+use hugrt::accel::{AnyAccel, Hit, NoCounters, PACKET, Packets};
 use numpy::{IntoPyArray, PyArray1, PyArray2};
 use pyo3::exceptions::{PyOSError, PyValueError};
 use pyo3::prelude::*;
@@ -257,23 +257,30 @@ impl Accel {
         py.detach(|| {
             on_pool(pool, || {
                 (
-                    t.par_iter_mut(),
-                    prim.par_iter_mut(),
-                    u.par_iter_mut(),
-                    v.par_iter_mut(),
+                    t.par_chunks_mut(PACKET),
+                    prim.par_chunks_mut(PACKET),
+                    u.par_chunks_mut(PACKET),
+                    v.par_chunks_mut(PACKET),
                 )
                     .into_par_iter()
-                    .with_min_len(RAYS_PER_TASK)
+                    .with_min_len(RAYS_PER_TASK / PACKET)
                     .enumerate()
-                    .for_each(|(i, (t, prim, u, v))| {
-                        let ray = rays.ray(i);
-                        match self.accel.closest_hit(&*self.scene, &ray, &mut NoCounters) {
-                            Some(h) if barycentrics => {
-                                let d = h.details(&*self.scene, &ray);
-                                (*t, *prim, *u, *v) = (h.t, h.prim as i64, d.u, d.v);
+                    .for_each(|(c, (t, prim, u, v))| {
+                        let group = &rays.group(c * PACKET, t.len())[..t.len()];
+                        let hits = &mut [None; PACKET][..group.len()];
+                        let scene = &*self.scene;
+                        let packets = Packets::Auto;
+                        self.accel
+                            .closest_hits(scene, group, packets, hits, &mut NoCounters);
+                        for (k, (h, ray)) in hits.iter().zip(group).enumerate() {
+                            match h {
+                                Some(h) if barycentrics => {
+                                    let d = h.details(scene, ray);
+                                    (t[k], prim[k], u[k], v[k]) = (h.t, h.prim as i64, d.u, d.v);
+                                }
+                                Some(h) => (t[k], prim[k]) = (h.t, h.prim as i64),
+                                None => (t[k], prim[k]) = (f32::INFINITY, -1),
                             }
-                            Some(h) => (*t, *prim) = (h.t, h.prim as i64),
-                            None => (*t, *prim) = (f32::INFINITY, -1),
                         }
                     })
             })
@@ -303,15 +310,18 @@ impl Accel {
         let mut out = vec![false; rays.len()];
         py.detach(|| {
             on_pool(pool, || {
-                out.par_iter_mut()
-                    .with_min_len(RAYS_PER_TASK)
+                out.par_chunks_mut(PACKET)
+                    .with_min_len(RAYS_PER_TASK / PACKET)
                     .enumerate()
-                    .for_each(|(i, o)| {
-                        let ray = rays.ray(i);
-                        *o = self
-                            .accel
-                            .any_hit(&*self.scene, &ray, &mut NoCounters)
-                            .is_some();
+                    .for_each(|(c, o)| {
+                        let group = &rays.group(c * PACKET, o.len())[..o.len()];
+                        let hits = &mut [None; PACKET][..group.len()];
+                        let packets = Packets::Auto;
+                        self.accel
+                            .any_hits(&*self.scene, group, packets, hits, &mut NoCounters);
+                        for (o, h) in o.iter_mut().zip(hits.iter()) {
+                            *o = h.is_some();
+                        }
                     })
             })
         });
