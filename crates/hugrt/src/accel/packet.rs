@@ -20,6 +20,18 @@ use super::Ray;
 /// Rays a packet holds: eight lanes, one AVX register of `f32`.
 pub const PACKET: usize = 8;
 
+/// The lanes of a packet's mask (bit `l` for ray `l`), lowest first.
+#[inline(always)]
+pub(crate) fn each_lane(mut mask: u32) -> impl Iterator<Item = usize> {
+    std::iter::from_fn(move || {
+        (mask != 0).then(|| {
+            let l = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            l
+        })
+    })
+}
+
 /// When batch queries walk rays as packets.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Packets {
@@ -121,6 +133,12 @@ mod tests {
         assert!(!coherent(&flipped), "another octant");
         assert!(!coherent(&pixels[..1]));
         assert!(!coherent(&[]));
+    }
+
+    #[test]
+    fn each_lane_lists_a_masks_bits() {
+        assert_eq!(each_lane(0b1010_0110).collect::<Vec<_>>(), [1, 2, 5, 7]);
+        assert_eq!(each_lane(0).count(), 0);
     }
 
     #[test]

@@ -21,7 +21,7 @@
 
 use super::block::{self, BlockRay, BlockRays};
 use super::{Bvh, LEAF, LEAF_START_BITS, NO_CHILD, Node, STACK, WIDTH};
-use crate::accel::packet::PACKET;
+use crate::accel::packet::{PACKET, each_lane};
 use crate::accel::{Counters, HitSink, Primitives};
 use crate::geometry::{PreparedRay, Ray};
 
@@ -263,10 +263,7 @@ impl Bvh {
                             let found = unsafe { block::packet_lanes_avx2(b, block_rays) };
                             #[cfg(not(target_arch = "x86_64"))]
                             let found: [block::Lanes; PACKET] = unreachable!();
-                            let mut each = todo;
-                            while each != 0 {
-                                let l = each.trailing_zeros() as usize;
-                                each &= each - 1;
+                            for l in each_lane(todo) {
                                 let ray = &prepared[l].as_ref().expect("prepared above").0;
                                 if self.finish_block(
                                     b,
@@ -286,16 +283,11 @@ impl Bvh {
                                 break;
                             }
                         }
-                        while todo != 0 {
-                            let l = todo.trailing_zeros() as usize;
-                            todo &= todo - 1;
+                        for l in each_lane(todo) {
                             far[l] = sinks[l].tmax();
                         }
                     } else {
-                        let mut todo = active;
-                        while todo != 0 {
-                            let l = todo.trailing_zeros() as usize;
-                            todo &= todo - 1;
+                        for l in each_lane(active) {
                             let ray = &rays[l];
                             let p = prepared[l].get_or_insert_with(|| {
                                 let pr = PreparedRay::new(ray);

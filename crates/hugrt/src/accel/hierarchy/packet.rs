@@ -22,7 +22,7 @@
 //! may not) is walked ray by ray.
 
 use super::{GRID_TAG, GridHierarchy, NO_FRAME};
-use crate::accel::packet::PACKET;
+use crate::accel::packet::{PACKET, each_lane};
 use crate::accel::{Counters, HitSink, Mailbox, Primitives};
 use crate::geometry::{PreparedRay, Ray, Vec3};
 
@@ -314,10 +314,7 @@ impl GridHierarchy {
                             counters.cell_visit(level);
                         }
                         self.test_cell_packet(prims, packet, here, start, stop, level, counters);
-                        let mut each = here;
-                        while each != 0 {
-                            let l = each.trailing_zeros() as usize;
-                            each &= each - 1;
+                        for l in each_lane(here) {
                             end[l] = if packet.live >> l & 1 != 0 {
                                 end[l].min(packet.sinks[l].tmax())
                             } else {
@@ -349,10 +346,7 @@ impl GridHierarchy {
         counters: &mut C,
     ) {
         let refs = &self.refs[start..end];
-        let mut each = here & packet.live;
-        while each != 0 {
-            let l = each.trailing_zeros() as usize;
-            each &= each - 1;
+        for l in each_lane(here & packet.live) {
             let ray = &packet.rays[l];
             if self.test_objects::<P, C, S>(
                 refs,
@@ -373,10 +367,7 @@ impl GridHierarchy {
             }
             let sub = r & !GRID_TAG;
             let mut enter = 0u32;
-            let mut each = here & packet.live;
-            while each != 0 {
-                let l = each.trailing_zeros() as usize;
-                each &= each - 1;
+            for l in each_lane(here & packet.live) {
                 enter |= (packet.mail[l].first_grid_visit(sub) as u32) << l;
             }
             if enter != 0 {
@@ -394,10 +385,7 @@ impl GridHierarchy {
         mask: u32,
         counters: &mut C,
     ) {
-        let mut each = mask & packet.live;
-        while each != 0 {
-            let l = each.trailing_zeros() as usize;
-            each &= each - 1;
+        for l in each_lane(mask & packet.live) {
             let ray = &packet.rays[l];
             if self.walk::<P, C, S>(
                 g,
