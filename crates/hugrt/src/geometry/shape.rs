@@ -158,6 +158,13 @@ fn triangle_overlaps_box(v: &[Vec3; 3], b: &Aabb) -> bool {
         proj.iter().cloned().fold(f64::INFINITY, f64::min) > r
             || proj.iter().cloned().fold(f64::NEG_INFINITY, f64::max) < -r
     };
+    // The triangle's plane first: the grids test a triangle against the cells of its box,
+    // where the box's own axes rarely separate and the plane separates most cells a large
+    // triangle's box holds (the HUG's build of the four kitchens spent 43% of its time here
+    // with the plane last). The order changes no answer: overlap is no axis separating.
+    if separated(e[0].cross(e[1])) {
+        return false;
+    }
     for ei in e {
         for a in [DVec3::X, DVec3::Y, DVec3::Z] {
             if separated(a.cross(ei)) {
@@ -170,7 +177,7 @@ fn triangle_overlaps_box(v: &[Vec3; 3], b: &Aabb) -> bool {
             return false;
         }
     }
-    !separated(e[0].cross(e[1]))
+    true
 }
 
 #[cfg(test)]
