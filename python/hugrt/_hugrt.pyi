@@ -41,13 +41,17 @@ class Accel:
         tmax: _Bound = None,
         threads: Optional[int] = None,
         barycentrics: bool = True,
+        packets: str = "auto",
     ) -> Tuple[
         npt.NDArray[np.float32],
         npt.NDArray[np.int64],
         npt.NDArray[np.float32],
         npt.NDArray[np.float32],
     ]:
-        """Closest hits: (t, primitive, u, v); a miss is t = inf, primitive = -1."""
+        """Closest hits: (t, primitive, u, v); a miss is t = inf, primitive = -1.
+
+        packets: "auto" (neighbouring rays walked eight together where they are coherent
+        and the structure's packets pay), "on" or "off"; the same hits either way."""
     def occluded(
         self,
         origins: _Reals,
@@ -55,6 +59,7 @@ class Accel:
         tmin: _Bound = None,
         tmax: _Bound = None,
         threads: Optional[int] = None,
+        packets: str = "auto",
     ) -> npt.NDArray[np.bool_]:
         """Whether anything is hit in [tmin, tmax]."""
     def intersect_all(

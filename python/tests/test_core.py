@@ -263,7 +263,18 @@ def test_camera_rays_walked_together_hit_as_brute_force():
     assert 0.05 < np.isfinite(bt).mean() < 1
     for name in ["bvh", "hug", "grid"]:
         accel = scene.build(name)
-        t, prim, _, _ = accel.intersect(o, d)
-        same = (prim == bp) | (t == bt)
-        assert same.all(), f"{name}: {np.count_nonzero(~same)} rays differ from brute force"
-        assert (accel.occluded(o, d) == blocked).all()
+        for packets in ["auto", "on", "off"]:
+            t, prim, _, _ = accel.intersect(o, d, packets=packets)
+            same = (prim == bp) | (t == bt)
+            assert same.all(), (
+                f"{name}, packets={packets}: {np.count_nonzero(~same)} rays differ from brute force"
+            )
+            assert (accel.occluded(o, d, packets=packets) == blocked).all()
+
+
+def test_an_unknown_packets_mode_is_named():
+    accel = hugrt.Scene.open("builtin:kitchen").build("bvh")
+    o, d = np.zeros((1, 3)), np.ones((1, 3))
+    for query in [accel.intersect, accel.occluded]:
+        with pytest.raises(ValueError, match="unknown packets mode `sometimes`"):
+            query(o, d, packets="sometimes")

@@ -222,6 +222,11 @@ fn on_pool<T: Send>(pool: Option<Arc<rayon::ThreadPool>>, f: impl FnOnce() -> T 
     }
 }
 
+/// The `packets` keyword: `auto`, `on` or `off`.
+fn packets_mode(s: &str) -> PyResult<Packets> {
+    s.parse().map_err(PyValueError::new_err)
+}
+
 /// Rays per rayon task: enough to pay for the task, few enough to balance two threads.
 const RAYS_PER_TASK: usize = 512;
 
@@ -232,7 +237,10 @@ impl Accel {
     /// int64 primitive index (-1 on a miss) and the barycentric weights of a triangle's
     /// vertices 1 and 2 at the hit (0 for other primitives and misses; all 0 with
     /// `barycentrics=False`, which spares computing them: a sixth of a fast query's time).
-    #[pyo3(signature = (origins, directions, tmin = None, tmax = None, threads = None, barycentrics = true))]
+    /// `packets`: `"auto"` walks neighbouring rays (eight at a time, in array order) together
+    /// where they are coherent and the structure's packets pay, `"on"` wherever there are two,
+    /// `"off"` one at a time; the hits are the same either way.
+    #[pyo3(signature = (origins, directions, tmin = None, tmax = None, threads = None, barycentrics = true, packets = "auto"))]
     #[allow(clippy::type_complexity, clippy::too_many_arguments)]
     fn intersect<'py>(
         &self,
@@ -243,6 +251,7 @@ impl Accel {
         tmax: Option<&Bound<'py, PyAny>>,
         threads: Option<usize>,
         barycentrics: bool,
+        packets: &str,
     ) -> PyResult<(
         Bound<'py, PyArray1<f32>>,
         Bound<'py, PyArray1<i64>>,
@@ -250,6 +259,7 @@ impl Accel {
         Bound<'py, PyArray1<f32>>,
     )> {
         let rays = Rays::read(origins, directions, tmin, tmax)?;
+        let packets = packets_mode(packets)?;
         let pool = pool(threads)?;
         let n = rays.len();
         let (mut t, mut prim, mut u, mut v) =
@@ -269,7 +279,6 @@ impl Accel {
                         let group = &rays.group(c * PACKET, t.len())[..t.len()];
                         let hits = &mut [None; PACKET][..group.len()];
                         let scene = &*self.scene;
-                        let packets = Packets::Auto;
                         self.accel
                             .closest_hits(scene, group, packets, hits, &mut NoCounters);
                         for (k, (h, ray)) in hits.iter().zip(group).enumerate() {
@@ -294,8 +303,9 @@ impl Accel {
     }
 
     /// Whether anything blocks each ray in `[tmin, tmax]`: a bool array (shadow rays, line
-    /// of sight).
-    #[pyo3(signature = (origins, directions, tmin = None, tmax = None, threads = None))]
+    /// of sight). `packets` as for [`Accel::intersect`].
+    #[pyo3(signature = (origins, directions, tmin = None, tmax = None, threads = None, packets = "auto"))]
+    #[allow(clippy::too_many_arguments)]
     fn occluded<'py>(
         &self,
         py: Python<'py>,
@@ -304,8 +314,10 @@ impl Accel {
         tmin: Option<&Bound<'py, PyAny>>,
         tmax: Option<&Bound<'py, PyAny>>,
         threads: Option<usize>,
+        packets: &str,
     ) -> PyResult<Bound<'py, PyArray1<bool>>> {
         let rays = Rays::read(origins, directions, tmin, tmax)?;
+        let packets = packets_mode(packets)?;
         let pool = pool(threads)?;
         let mut out = vec![false; rays.len()];
         py.detach(|| {
@@ -316,7 +328,6 @@ impl Accel {
                     .for_each(|(c, o)| {
                         let group = &rays.group(c * PACKET, o.len())[..o.len()];
                         let hits = &mut [None; PACKET][..group.len()];
-                        let packets = Packets::Auto;
                         self.accel
                             .any_hits(&*self.scene, group, packets, hits, &mut NoCounters);
                         for (o, h) in o.iter_mut().zip(hits.iter()) {
