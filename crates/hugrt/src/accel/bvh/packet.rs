@@ -25,6 +25,10 @@ use crate::accel::packet::{PACKET, each_lane};
 use crate::accel::{Counters, HitSink, Primitives};
 use crate::geometry::{PreparedRay, Ray};
 
+/// Most rays of a packet still active at a leaf for which its blocks are tested ray by ray
+/// (the single walk's test, the same bits) rather than against eight lanes at once.
+const SINGLE_LEAF_LANES: u32 = 2;
+
 type Lanes = [f32; PACKET];
 
 /// What a node test needs of the packet's rays: origins and inverse directions, lane by
@@ -41,10 +45,13 @@ struct PacketRays {
 /// in a face's plane, fails both comparisons and leaves the interval as it was). Each child's
 /// lanes are kept in locals: written into arrays axis by axis, the compiler made them masked
 /// stores, which made the walk slower than one ray's.
+/// The third part is each child's nearest entry over the rays of `active` that reach it
+/// (infinite when none does).
 #[inline(always)]
-fn meet(node: &Node, r: &PacketRays, tmin: &Lanes, far: &Lanes) -> ([u32; WIDTH], [Lanes; WIDTH]) {
+fn meet(node: &Node, r: &PacketRays, tmin: &Lanes, far: &Lanes, active: u32) -> Met {
     let mut t0 = [*tmin; WIDTH];
     let mut reaches = [0u32; WIDTH];
+    let mut nearest = [f32::INFINITY; WIDTH];
     for k in 0..WIDTH {
         let mut near_t = *tmin;
         let mut far_t = *far;
@@ -63,25 +70,33 @@ fn meet(node: &Node, r: &PacketRays, tmin: &Lanes, far: &Lanes) -> ([u32; WIDTH]
         }
         reaches[k] = reach;
         t0[k] = near_t;
+        for (l, &t) in near_t.iter().enumerate() {
+            if (reach & active) >> l & 1 != 0 && t < nearest[k] {
+                nearest[k] = t;
+            }
+        }
     }
-    (reaches, t0)
+    (reaches, t0, nearest)
 }
+
+/// What [`meet`] finds: the rays reaching each child, their entry distances and each child's
+/// nearest entry among the active rays.
+type Met = ([u32; WIDTH], [Lanes; WIDTH], [f32; WIDTH]);
 
 /// [`meet`] with AVX, the eight lanes one register: `max(tn, t)` and `min(tf, t)` return their
 /// second operand when the first is NaN, as the comparisons of [`meet`] do, and the masks come
-/// from one ordered `<=` comparison each, false on NaN as there.
+/// from one ordered `<=` comparison each, false on NaN as there. The nearest entry is a
+/// horizontal minimum of the lanes reached (never NaN: each starts at `tmin` and `max` keeps
+/// it on a NaN), the value [`meet`]'s loop finds (a zero's sign aside, which the children's
+/// order, the only use of it, does not see); found lane by lane, it made the packet walk
+/// of a terrain's shadow rays slower than one ray at a time.
 ///
 /// # Safety
 /// The processor must support AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 #[inline]
-unsafe fn meet_avx2(
-    node: &Node,
-    r: &PacketRays,
-    tmin: &Lanes,
-    far: &Lanes,
-) -> ([u32; WIDTH], [Lanes; WIDTH]) {
+unsafe fn meet_avx2(node: &Node, r: &PacketRays, tmin: &Lanes, far: &Lanes, active: u32) -> Met {
     use std::arch::x86_64::*;
     // SAFETY (every unaligned load and store below): each reads or writes eight `f32` of a
     // `Lanes`, which is eight `f32`.
@@ -91,6 +106,9 @@ unsafe fn meet_avx2(
     let (lo, hi) = (load(tmin), load(far));
     let mut t0 = [[0f32; PACKET]; WIDTH];
     let mut reaches = [0u32; WIDTH];
+    let mut nearest = [f32::INFINITY; WIDTH];
+    let bits = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+    let infinity = _mm256_set1_ps(f32::INFINITY);
     for k in 0..WIDTH {
         let mut near_t = lo;
         let mut far_t = hi;
@@ -102,10 +120,20 @@ unsafe fn meet_avx2(
             near_t = _mm256_max_ps(tn, near_t);
             far_t = _mm256_min_ps(tf, far_t);
         }
-        reaches[k] = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near_t, far_t)) as u32;
+        let reached = _mm256_cmp_ps::<_CMP_LE_OQ>(near_t, far_t);
+        reaches[k] = _mm256_movemask_ps(reached) as u32;
         unsafe { _mm256_storeu_ps(t0[k].as_mut_ptr(), near_t) };
+        let of_active = _mm256_castsi256_ps(_mm256_cmpeq_epi32(
+            _mm256_and_si256(_mm256_set1_epi32(active as i32), bits),
+            bits,
+        ));
+        let t = _mm256_blendv_ps(infinity, near_t, _mm256_and_ps(reached, of_active));
+        let t = _mm_min_ps(_mm256_castps256_ps128(t), _mm256_extractf128_ps::<1>(t));
+        let t = _mm_min_ps(t, _mm_movehl_ps(t, t));
+        let t = _mm_min_ss(t, _mm_shuffle_ps::<1>(t, t));
+        nearest[k] = _mm_cvtss_f32(t);
     }
-    (reaches, t0)
+    (reaches, t0, nearest)
 }
 
 /// A child waiting on the stack: its reference, the rays that reached it and their entry
@@ -241,7 +269,7 @@ impl Bvh {
                 if child & LEAF != 0 {
                     let start = (child & ((1 << LEAF_START_BITS) - 1)) as usize;
                     let count = ((child & !LEAF) >> LEAF_START_BITS) as usize + 1;
-                    if AVX2 && !self.indexed {
+                    if AVX2 && !self.indexed && active.count_ones() > SINGLE_LEAF_LANES {
                         // Every ray's set-up at the packet's first leaf: the blocks are met by
                         // the eight lanes at once.
                         let block_rays = block_rays.get_or_insert_with(|| {
@@ -307,16 +335,16 @@ impl Bvh {
                     }
                 } else {
                     let node = &self.nodes[child as usize];
-                    let (reaches, t0) = if AVX2 {
+                    let (reaches, t0, nearest) = if AVX2 {
                         #[cfg(target_arch = "x86_64")]
                         // SAFETY: `AVX2` is set only by `packet_avx2`, run where AVX2 is.
                         unsafe {
-                            meet_avx2(node, &rays_, &tmin, &far)
+                            meet_avx2(node, &rays_, &tmin, &far, active)
                         }
                         #[cfg(not(target_arch = "x86_64"))]
                         unreachable!()
                     } else {
-                        meet(node, &rays_, &tmin, &far)
+                        meet(node, &rays_, &tmin, &far, active)
                     };
                     let mut hits = [(0f32, 0u32, 0u32, 0usize); WIDTH];
                     let mut found = 0;
@@ -331,12 +359,7 @@ impl Bvh {
                         if reach == 0 {
                             continue;
                         }
-                        let mut nearest = f32::INFINITY;
-                        for (l, &t) in t0[k].iter().enumerate() {
-                            if reach >> l & 1 != 0 && t < nearest {
-                                nearest = t;
-                            }
-                        }
+                        let nearest = nearest[k];
                         // Sorted by nearest entry, farthest first, by insertion.
                         let mut i = found;
                         while i > 0 && hits[i - 1].0 < nearest {
@@ -441,22 +464,30 @@ mod tests {
             };
             let tmin: Lanes = std::array::from_fn(|l| rays[l].2);
             let far: Lanes = std::array::from_fn(|l| rays[l].3);
-            let mut tests = vec![meet(&node, &packet, &tmin, &far)];
+            let active: u32 = r.random_range(0..=255);
+            let mut tests = vec![meet(&node, &packet, &tmin, &far, active)];
             #[cfg(target_arch = "x86_64")]
             if crate::accel::simd::available() {
                 // SAFETY: AVX2 is present.
-                tests.push(unsafe { meet_avx2(&node, &packet, &tmin, &far) });
+                tests.push(unsafe { meet_avx2(&node, &packet, &tmin, &far, active) });
             }
-            for (which, (reaches, t0)) in tests.iter().enumerate() {
+            for (which, (reaches, t0, nearest)) in tests.iter().enumerate() {
                 checked[which] += 1;
                 for k in 0..WIDTH {
+                    let mut least = f32::INFINITY;
                     for (l, &(o, d, lo, hi)) in rays.iter().enumerate() {
                         let (reached, entry) = alone(&node, k, o, d, lo, hi);
                         assert_eq!(reaches[k] >> l & 1 != 0, reached, "test {which}");
                         if reached {
                             assert_eq!(t0[k][l].to_bits(), entry.to_bits(), "test {which}");
+                            if active >> l & 1 != 0 {
+                                least = least.min(entry);
+                            }
                         }
                     }
+                    // Equal as numbers: the sign of a zero may differ, which the ordering of
+                    // the children does not see.
+                    assert_eq!(nearest[k], least, "test {which}");
                 }
             }
         }
