@@ -96,11 +96,19 @@ pub fn coherent(rays: &[Ray]) -> bool {
     let Some(first) = rays.first() else {
         return false;
     };
-    let d0 = first.dir.normalize_or_zero();
-    let sign = first.dir.is_negative_bitmask();
+    let d0 = first.dir;
+    let sign = d0.is_negative_bitmask();
+    // cos ≥ c as dot > 0 and dot² ≥ c²·|d|²·|d0|²: no square root nor division per ray,
+    // which made the check cost up to a tenth of a camera frame with packets. A zero direction
+    // is never coherent.
+    let c2 = COHERENT_COS * COHERENT_COS * d0.length_squared();
     rays.len() > 1
+        && c2 > 0.0
         && rays[1..].iter().all(|r| {
-            r.dir.is_negative_bitmask() == sign && r.dir.normalize_or_zero().dot(d0) >= COHERENT_COS
+            let dot = r.dir.dot(d0);
+            r.dir.is_negative_bitmask() == sign
+                && dot > 0.0
+                && dot * dot >= c2 * r.dir.length_squared()
         })
 }
 
@@ -132,6 +140,15 @@ mod tests {
         flipped[3] = ray(Vec3::new(0.01, -1e-3, 1.0));
         assert!(!coherent(&flipped), "another octant");
         assert!(!coherent(&pixels[..1]));
+        let mut stopped = pixels.clone();
+        stopped[0] = ray(Vec3::ZERO);
+        assert!(!coherent(&stopped), "a zero direction first");
+        stopped.swap(0, 4);
+        assert!(!coherent(&stopped), "a zero direction later");
+        // Just inside and just outside the widest angle.
+        let at = |cos: f32| ray(Vec3::new((1.0 - cos * cos).sqrt(), 0.0, cos));
+        assert!(coherent(&[ray(Vec3::Z), at(0.981)]));
+        assert!(!coherent(&[ray(Vec3::Z), at(0.979)]));
         assert!(!coherent(&[]));
     }
 
