@@ -91,6 +91,7 @@ pub struct PreparedRay {
 }
 
 impl PreparedRay {
+    #[inline]
     pub fn new(ray: &Ray) -> Self {
         let d = ray.dir;
         let a = d.abs();
@@ -106,12 +107,14 @@ impl PreparedRay {
         if d[kz] < 0.0 {
             std::mem::swap(&mut kx, &mut ky);
         }
-        let sz = 1.0 / d[kz];
+        // `1 / d[kz]` is the inverse direction's component: one division fewer.
+        let inv_dir = Vec3::ONE / d;
+        let sz = inv_dir[kz];
         let (sx, sy) = (d[kx] * sz, d[ky] * sz);
         let e = |k: usize| Vec3::AXES[k];
         PreparedRay {
             ray: *ray,
-            inv_dir: Vec3::ONE / d,
+            inv_dir,
             rows: [e(kx) - sx * e(kz), e(ky) - sy * e(kz)],
         }
     }
