@@ -98,8 +98,8 @@ pub trait Primitives: Sync {
     /// Hit parameter of primitive `i` in `[tmin, tmax]`, if any.
     fn intersect(&self, i: usize, ray: &PreparedRay, tmin: f32, tmax: f32) -> Option<f32>;
     /// Exact overlap of primitive `i` with a box; `true` when unsure (conservative). The
-    /// grids' pruning asks it of every primitive whose [`Primitives::kind`] is not a triangle;
-    /// a triangle's test they prepare once from its geometry for all the cells it spans.
+    /// grids' pruning asks it of every primitive their store does not hold as a triangle; a
+    /// triangle's test they prepare once from the store's copy for all the cells it spans.
     fn overlaps_box(&self, _i: usize, _b: &Aabb) -> bool {
         true
     }

@@ -10,7 +10,7 @@ use super::{GRID_TAG, GridHierarchy, MAX_REFS_PER_ITEM, MIN_REF_BUDGET, NO_FRAME
 use crate::accel::simd;
 use crate::accel::sort::radix_sort_high32_parts;
 use crate::accel::store::{PrimStore, finite};
-use crate::accel::{Frame, PrimitiveKind, Primitives, SpecError};
+use crate::accel::{Frame, Primitives, SpecError};
 use crate::geometry::{Aabb, TriangleBoxTest, Vec3};
 use rayon::prelude::*;
 
@@ -53,13 +53,12 @@ impl<P: Primitives> Binner<'_, P> {
             let test = r & GRID_TAG == 0
                 && h.frame == NO_FRAME
                 && (0..3).map(|a| (hi[a] - lo[a] + 1) as u64).product::<u64>() >= self.prune_span;
-            // A triangle's test is prepared once for all its cells; the same answers as
-            // `overlaps_box` of its shape, which is what a triangle primitive's test is.
-            let id = if test { self.store.id(r) as usize } else { 0 };
-            let triangle = match test.then(|| self.prims.kind(id)) {
-                Some(PrimitiveKind::Triangle(v)) => Some(TriangleBoxTest::new(&v)),
-                _ => None,
-            };
+            // A triangle's test is prepared once for all its cells, from the store's copy
+            // (the geometry the grid's rays are tested against); other primitives ask theirs.
+            let triangle = test
+                .then(|| self.store.triangle(r))
+                .flatten()
+                .map(|v| TriangleBoxTest::new(&v));
             // A cell is kept when the object meets it widened by the margin, which is what
             // the exactness argument asks of the references (module documentation).
             GridHierarchy::for_each_cell(h, &b, |cell, i| {
@@ -69,7 +68,7 @@ impl<P: Primitives> Binner<'_, P> {
                         let cell = h.cell_box(cell).expand(self.margin);
                         match &triangle {
                             Some(t) => t.overlaps(&cell),
-                            None => self.prims.overlaps_box(id, &cell),
+                            None => self.prims.overlaps_box(self.store.id(r) as usize, &cell),
                         }
                     })
                 {
