@@ -215,3 +215,45 @@ fn steep_rays_in_packets_far_from_the_world_origin() {
         .to_vec();
     assert_all_agree(&scene, &specs, &rays);
 }
+
+/// Packets of rays through the triangles' shared edges and corners, where an edge function is
+/// exactly zero and the packet kernels hand the lane to the scalar test: every ray hits the
+/// closed floor, alone and in a packet (the grids' packet walk misses them without it).
+#[test]
+fn packets_through_shared_edges() {
+    use hugrt::geometry::{Ray, Vec3};
+    use hugrt::scene::{Mesh, Scene};
+    let n = 8u32;
+    let vertices: Vec<Vec3> = (0..=n)
+        .flat_map(|j| (0..=n).map(move |i| Vec3::new(i as f32, j as f32, 0.0)))
+        .collect();
+    let at = |i: u32, j: u32| j * (n + 1) + i;
+    let triangles: Vec<[u32; 3]> = (0..n)
+        .flat_map(|j| (0..n).map(move |i| (i, j)))
+        .flat_map(|(i, j)| {
+            [
+                [at(i, j), at(i + 1, j), at(i + 1, j + 1)],
+                [at(i, j), at(i + 1, j + 1), at(i, j + 1)],
+            ]
+        })
+        .collect();
+    let scene = Scene::from_mesh(Mesh::new(vertices, triangles).unwrap());
+    let mut rays = Vec::new();
+    for k in 0..64 {
+        let x = (k as f32 + 0.5) / 8.0;
+        // Down a diagonal, along an edge between squares and through corners.
+        for p in [
+            Vec3::new(x, x, 0.0),
+            Vec3::new(x, 3.0, 0.0),
+            Vec3::new((k / 8) as f32, (k % 8) as f32, 0.0),
+        ] {
+            rays.push(Ray::new(p + Vec3::Z, -Vec3::Z, 0.0, f32::INFINITY));
+        }
+    }
+    let brute = hugrt::accel::AnyAccel::build(&scene, "brute").unwrap();
+    for ray in &rays {
+        let hit = brute.closest_hit(&scene, ray, &mut hugrt::accel::NoCounters);
+        assert!(hit.is_some(), "{ray:?}");
+    }
+    assert_all_agree(&scene, &specs(), &rays);
+}

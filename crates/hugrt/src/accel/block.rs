@@ -113,6 +113,45 @@ impl BlockRays {
 #[target_feature(enable = "avx2")]
 #[inline]
 pub unsafe fn packet_lanes_avx2(b: &Block, rays: &BlockRays) -> [Lanes; 8] {
+    // SAFETY: the caller's processor supports AVX2.
+    let by_triangle = unsafe { packet_rays_avx2(b, rays) };
+    let mut out = [Lanes {
+        crossed: 0,
+        redo: 0,
+    }; 8];
+    for (t, m) in by_triangle.iter().enumerate() {
+        for r in each_bit(m.crossed) {
+            out[r].crossed |= 1 << t;
+        }
+        for r in each_bit(m.redo) {
+            out[r].redo |= 1 << t;
+        }
+    }
+    out
+}
+
+/// The bits set in `mask`, lowest first.
+#[inline(always)]
+fn each_bit(mut mask: u32) -> impl Iterator<Item = usize> {
+    std::iter::from_fn(move || {
+        (mask != 0).then(|| {
+            let l = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            l
+        })
+    })
+}
+
+/// What [`packet_lanes_avx2`] finds, by triangle: entry `t` has bit `r` set where ray `r`
+/// crosses the block's lane `t` (or needs the scalar test there). The grids' packet walk
+/// reads it so, the rays that cross one triangle at a time.
+///
+/// # Safety
+/// The processor must support AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+pub unsafe fn packet_rays_avx2(b: &Block, rays: &BlockRays) -> [Lanes; LANES] {
     use std::arch::x86_64::*;
     // SAFETY (the loads): each reads the eight `f32` of one `[f32; 8]`, unaligned.
     let load = |x: &[f32; 8]| unsafe { _mm256_loadu_ps(x.as_ptr()) };
@@ -137,8 +176,8 @@ pub unsafe fn packet_lanes_avx2(b: &Block, rays: &BlockRays) -> [Lanes; 8] {
     let mut out = [Lanes {
         crossed: 0,
         redo: 0,
-    }; 8];
-    for t in 0..LANES {
+    }; LANES];
+    for (t, found) in out.iter_mut().enumerate() {
         let vertex = |k: usize| {
             [
                 _mm256_sub_ps(s(b.v[k][0][t]), o[0]),
@@ -174,10 +213,7 @@ pub unsafe fn packet_lanes_avx2(b: &Block, rays: &BlockRays) -> [Lanes; 8] {
             _mm256_cmp_ps::<_CMP_GT_OQ>(det_abs, zero),
         );
         let crossed = _mm256_movemask_ps(_mm256_andnot_ps(mixed, det_ok)) as u32 & !redo;
-        for (r, lanes) in out.iter_mut().enumerate() {
-            lanes.crossed |= (crossed >> r & 1) << t;
-            lanes.redo |= (redo >> r & 1) << t;
-        }
+        *found = Lanes { crossed, redo };
     }
     out
 }

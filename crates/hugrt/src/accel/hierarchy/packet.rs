@@ -22,9 +22,10 @@
 //! may not) is walked ray by ray.
 
 use super::{GRID_TAG, GridHierarchy, NO_FRAME};
+use crate::accel::block::{Block, BlockRay, BlockRays, LANES};
 use crate::accel::packet::{PACKET, each_lane};
 use crate::accel::{Counters, HitSink, Mailbox, Primitives};
-use crate::geometry::{PreparedRay, Ray, Vec3};
+use crate::geometry::{PreparedRay, Ray, Vec3, crossing_t, intersect_triangle};
 
 /// How far each ray's rectangle of cells is widened in a slice: this fraction of the largest
 /// magnitude among its origin, the grid's box and its travel `|t|·|d|` (16 ulps of it, where
@@ -50,6 +51,8 @@ fn max_of(x: &Lanes) -> f32 {
 /// mailbox and whether its sink has stopped the walk.
 pub(super) struct Packet<'a, S> {
     rays: &'a [PreparedRay; PACKET],
+    /// The rays as the packet triangle kernel reads them.
+    block_rays: &'a BlockRays,
     sinks: &'a mut [S],
     mail: &'a mut [Mailbox; PACKET],
     /// Rays whose sink has not stopped the walk.
@@ -73,8 +76,10 @@ impl GridHierarchy {
         let prepared: [PreparedRay; PACKET] =
             std::array::from_fn(|l| PreparedRay::new(&rays[l.min(n - 1)]));
         let mut mail: [Mailbox; PACKET] = std::array::from_fn(|_| Mailbox::default());
+        let block_rays = BlockRays::new(&std::array::from_fn(|l| BlockRay::new(&prepared[l])));
         let mut packet = Packet {
             rays: &prepared,
+            block_rays: &block_rays,
             sinks: &mut sinks[..n],
             mail: &mut mail,
             live: (1 << n) - 1,
@@ -203,6 +208,7 @@ impl GridHierarchy {
             h.res[0] as usize,
             h.res[0] as usize * h.res[1] as usize,
         ];
+        let (stride_u, stride_v) = (stride[u], stride[v]);
         // A coordinate's cell, clamped to the grid, as `GridHeader::coord` finds it
         // (truncation is the floor of the non-negative values that survive the clamp).
         let cell =
@@ -244,9 +250,9 @@ impl GridHierarchy {
             let plane_lo = h.min[k] + slice as f32 * h.size[k];
             let plane_hi = plane_lo + h.size[k];
             let (lo, hi) = segments(&end);
-            // Each ray's rectangle of cells in this slice; an empty one where the ray is not
-            // in the slice.
-            let mut r = [[0i32; PACKET]; 4];
+            // Each ray's rectangle in this slice, widened, in the grid's coordinates: empty
+            // (`+inf` to `-inf`) where the ray is not in the slice.
+            let mut f = [[0f32; PACKET]; 4];
             let mut in_slice = 0u32;
             let mut beyond = 0u32;
             for l in 0..PACKET {
@@ -254,26 +260,11 @@ impl GridHierarchy {
                 let (u0, u1) = (ou[l] + (c0 - ok[l]) * su[l], ou[l] + (c1 - ok[l]) * su[l]);
                 let (v0, v1) = (ov[l] + (c0 - ok[l]) * sv[l], ov[l] + (c1 - ok[l]) * sv[l]);
                 let inside = c0 <= c1;
-                r[0][l] = if inside {
-                    cell(u0.min(u1) - widen[l], min_u, inv_u, top_u)
-                } else {
-                    i32::MAX
-                };
-                r[1][l] = if inside {
-                    cell(v0.min(v1) - widen[l], min_v, inv_v, top_v)
-                } else {
-                    i32::MAX
-                };
-                r[2][l] = if inside {
-                    cell(u0.max(u1) + widen[l], min_u, inv_u, top_u)
-                } else {
-                    -1
-                };
-                r[3][l] = if inside {
-                    cell(v0.max(v1) + widen[l], min_v, inv_v, top_v)
-                } else {
-                    -1
-                };
+                let (inf, ninf) = (f32::INFINITY, f32::NEG_INFINITY);
+                f[0][l] = if inside { u0.min(u1) - widen[l] } else { inf };
+                f[1][l] = if inside { v0.min(v1) - widen[l] } else { inf };
+                f[2][l] = if inside { u0.max(u1) + widen[l] } else { ninf };
+                f[3][l] = if inside { v0.max(v1) + widen[l] } else { ninf };
                 in_slice |= (inside as u32) << l;
                 let ahead = if forward {
                     hi[l] > plane_hi
@@ -283,22 +274,50 @@ impl GridHierarchy {
                 beyond |= (ahead as u32) << l;
             }
             if in_slice != 0 {
-                let u_lo = *r[0].iter().min().expect("lanes") as u32;
-                let v_lo = *r[1].iter().min().expect("lanes") as u32;
-                let u_hi = *r[2].iter().max().expect("lanes") as u32;
-                let v_hi = *r[3].iter().max().expect("lanes") as u32;
+                let slice_first = h.first_cell as usize + slice as usize * stride[k];
+                // The cells of the union of the rectangles (a cell is monotone in its
+                // coordinate, so the union's are the least and greatest of the rays' cells).
+                let u_lo = cell(min_of(&f[0]), min_u, inv_u, top_u) as u32;
+                let v_lo = cell(min_of(&f[1]), min_v, inv_v, top_v) as u32;
+                let u_hi = cell(max_of(&f[2]), min_u, inv_u, top_u) as u32;
+                let v_hi = cell(max_of(&f[3]), min_v, inv_v, top_v) as u32;
+                // Each ray's own cells, found at the slice's first occupied cell: most
+                // slices of most packets hold none.
+                let mut r: Option<[[i32; PACKET]; 4]> = None;
                 for cv in v_lo..=v_hi {
                     for cu in u_lo..=u_hi {
-                        let mut at = [0usize; 3];
-                        (at[k], at[u], at[v]) = (slice as usize, cu as usize, cv as usize);
-                        let idx = h.first_cell as usize
-                            + at[0] * stride[0]
-                            + at[1] * stride[1]
-                            + at[2] * stride[2];
+                        let idx = slice_first + cu as usize * stride_u + cv as usize * stride_v;
                         // Most cells are empty: their rays are not worth finding.
                         let Some((start, stop)) = self.cells.range(idx) else {
                             continue;
                         };
+                        let r = r.get_or_insert_with(|| {
+                            let mut r = [[0i32; PACKET]; 4];
+                            for l in 0..PACKET {
+                                let inside = in_slice >> l & 1 != 0;
+                                r[0][l] = if inside {
+                                    cell(f[0][l], min_u, inv_u, top_u)
+                                } else {
+                                    i32::MAX
+                                };
+                                r[1][l] = if inside {
+                                    cell(f[1][l], min_v, inv_v, top_v)
+                                } else {
+                                    i32::MAX
+                                };
+                                r[2][l] = if inside {
+                                    cell(f[2][l], min_u, inv_u, top_u)
+                                } else {
+                                    -1
+                                };
+                                r[3][l] = if inside {
+                                    cell(f[3][l], min_v, inv_v, top_v)
+                                } else {
+                                    -1
+                                };
+                            }
+                            r
+                        });
                         let (fu, fv) = (cu as i32, cv as i32);
                         let mut here = 0u32;
                         for l in 0..PACKET {
@@ -345,7 +364,14 @@ impl GridHierarchy {
         level: usize,
         counters: &mut C,
     ) {
-        let refs = &self.refs[start..end];
+        let mut refs = &self.refs[start..end];
+        #[cfg(target_arch = "x86_64")]
+        if self.simd && (here & packet.live).count_ones() > 1 {
+            let triangles = self.store.triangle_count();
+            let tri_count = refs.partition_point(|&r| (r as usize) < triangles);
+            self.test_triangles_packet(&refs[..tri_count], packet, here, level, counters);
+            refs = &refs[tri_count..];
+        }
         for l in each_lane(here & packet.live) {
             let ray = &packet.rays[l];
             if self.test_objects::<P, C, S>(
@@ -361,7 +387,7 @@ impl GridHierarchy {
                 packet.live &= !(1 << l);
             }
         }
-        for &r in refs {
+        for &r in &self.refs[start..end] {
             if r & GRID_TAG == 0 {
                 continue;
             }
@@ -372,6 +398,61 @@ impl GridHierarchy {
             }
             if enter != 0 {
                 self.walk_packet(sub, prims, packet, enter, counters);
+            }
+        }
+    }
+
+    /// Tests triangles `tris` (store entries) for the rays of `here` still live: four at a
+    /// time against all eight rays with the packet kernel ([`crate::accel::block`]), whose
+    /// bits are the scalar test's, then in each ray's lane order the `t` of a crossed lane, as
+    /// the single walk finds it. A ray's mailbox records only the triangles it crosses: a
+    /// triangle it misses misses again, and only a hit must not be offered twice.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn test_triangles_packet<C: Counters, S: HitSink>(
+        &self,
+        tris: &[u32],
+        packet: &mut Packet<'_, S>,
+        here: u32,
+        level: usize,
+        counters: &mut C,
+    ) {
+        for chunk in tris.chunks(LANES) {
+            let mut block = Block::EMPTY;
+            for (t, &r) in chunk.iter().enumerate() {
+                let tri = self
+                    .store
+                    .triangle(r)
+                    .expect("the cell's first entries are triangles");
+                block.set(t, &tri, r);
+            }
+            // SAFETY: `simd` is set only where AVX2 is present (`build`).
+            let found = unsafe { crate::accel::block::packet_rays_avx2(&block, packet.block_rays) };
+            for _ in 0..chunk.len() * (here & packet.live).count_ones() as usize {
+                counters.prim_test(level);
+            }
+            // Triangle by triangle, in store order, as each ray's own walk meets them.
+            for (t, (&r, lanes)) in chunk.iter().zip(&found).enumerate() {
+                let todo = (lanes.crossed | lanes.redo) & here & packet.live;
+                for l in each_lane(todo) {
+                    if !packet.mail[l].first_visit(r) {
+                        continue;
+                    }
+                    let ray = &packet.rays[l];
+                    let sink = &mut packet.sinks[l];
+                    let tri = block.triangle(t);
+                    let hit = if lanes.crossed >> l & 1 != 0 {
+                        crossing_t(&tri, &ray.ray, ray.ray.tmin, sink.tmax())
+                    } else {
+                        intersect_triangle(ray, &tri, ray.ray.tmin, sink.tmax())
+                    };
+                    if let Some(t) = hit {
+                        counters.prim_hit(level);
+                        if sink.offer(t, || self.store.id(r)) {
+                            packet.live &= !(1 << l);
+                        }
+                    }
+                }
             }
         }
     }
