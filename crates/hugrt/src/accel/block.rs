@@ -102,6 +102,77 @@ impl BlockRays {
     }
 }
 
+/// The packet kernel's body, shared by [`packet_lanes_avx2`] and [`packet_rays_avx2`]: for
+/// each lane `t` of block `b`, the masks of the eight `rays` that cross it and that need the
+/// scalar test, handed to `emit` (a macro, so that both AVX2 functions inline the
+/// intrinsics).
+#[cfg(target_arch = "x86_64")]
+macro_rules! packet_kernel {
+    ($b:expr, $rays:expr, |$t:ident, $crossed:ident, $redo:ident| $emit:block) => {{
+        use std::arch::x86_64::*;
+        // SAFETY (the loads): each reads the eight `f32` of one `[f32; 8]`, unaligned.
+        let load = |x: &[f32; 8]| unsafe { _mm256_loadu_ps(x.as_ptr()) };
+        let o = [load(&$rays.o[0]), load(&$rays.o[1]), load(&$rays.o[2])];
+        let row = |r: usize| {
+            [
+                load(&$rays.rows[r][0]),
+                load(&$rays.rows[r][1]),
+                load(&$rays.rows[r][2]),
+            ]
+        };
+        let (rx, ry) = (row(0), row(1));
+        let s = |x: f32| _mm256_set1_ps(x);
+        // `r·p` as glam's `dot` sums it: `(r.x·p.x + r.y·p.y) + r.z·p.z`.
+        let dot = |r: &[__m256; 3], p: &[__m256; 3]| {
+            _mm256_add_ps(
+                _mm256_add_ps(_mm256_mul_ps(r[0], p[0]), _mm256_mul_ps(r[1], p[1])),
+                _mm256_mul_ps(r[2], p[2]),
+            )
+        };
+        let zero = _mm256_setzero_ps();
+        for $t in 0..LANES {
+            let t = $t;
+            let vertex = |k: usize| {
+                [
+                    _mm256_sub_ps(s($b.v[k][0][t]), o[0]),
+                    _mm256_sub_ps(s($b.v[k][1][t]), o[1]),
+                    _mm256_sub_ps(s($b.v[k][2][t]), o[2]),
+                ]
+            };
+            let p = [vertex(0), vertex(1), vertex(2)];
+            let (ax, ay) = (dot(&rx, &p[0]), dot(&ry, &p[0]));
+            let (bx, by) = (dot(&rx, &p[1]), dot(&ry, &p[1]));
+            let (cx, cy) = (dot(&rx, &p[2]), dot(&ry, &p[2]));
+            let u = _mm256_sub_ps(_mm256_mul_ps(cx, by), _mm256_mul_ps(cy, bx));
+            let v = _mm256_sub_ps(_mm256_mul_ps(ax, cy), _mm256_mul_ps(ay, cx));
+            let w = _mm256_sub_ps(_mm256_mul_ps(bx, ay), _mm256_mul_ps(by, ax));
+            macro_rules! any {
+                ($pred:ident) => {
+                    _mm256_or_ps(
+                        _mm256_or_ps(
+                            _mm256_cmp_ps::<$pred>(u, zero),
+                            _mm256_cmp_ps::<$pred>(v, zero),
+                        ),
+                        _mm256_cmp_ps::<$pred>(w, zero),
+                    )
+                };
+            }
+            let redo = _mm256_movemask_ps(any!(_CMP_EQ_OQ)) as u32;
+            let mixed = _mm256_and_ps(any!(_CMP_LT_OQ), any!(_CMP_GT_OQ));
+            let det = _mm256_add_ps(_mm256_add_ps(u, v), w);
+            let det_abs = _mm256_andnot_ps(s(-0.0), det);
+            // Neither zero nor infinite nor NaN (a lane of no triangle).
+            let det_ok = _mm256_and_ps(
+                _mm256_cmp_ps::<_CMP_LT_OQ>(det_abs, s(f32::INFINITY)),
+                _mm256_cmp_ps::<_CMP_GT_OQ>(det_abs, zero),
+            );
+            let crossed = _mm256_movemask_ps(_mm256_andnot_ps(mixed, det_ok)) as u32 & !redo;
+            let ($crossed, $redo) = (crossed, redo);
+            $emit
+        }
+    }};
+}
+
 /// [`lanes`] of each of eight rays: entry `r` is what `lanes(b, ray r)` finds, bit for bit.
 /// The block's triangles are met one at a time by the eight rays at once (AVX, a ray a lane),
 /// with the kernel's arithmetic in the kernel's order: the packet walk of the bvh tests a
@@ -113,33 +184,17 @@ impl BlockRays {
 #[target_feature(enable = "avx2")]
 #[inline]
 pub unsafe fn packet_lanes_avx2(b: &Block, rays: &BlockRays) -> [Lanes; 8] {
-    // SAFETY: the caller's processor supports AVX2.
-    let by_triangle = unsafe { packet_rays_avx2(b, rays) };
     let mut out = [Lanes {
         crossed: 0,
         redo: 0,
     }; 8];
-    for (t, m) in by_triangle.iter().enumerate() {
-        for r in each_bit(m.crossed) {
-            out[r].crossed |= 1 << t;
+    packet_kernel!(b, rays, |t, crossed, redo| {
+        for (r, lanes) in out.iter_mut().enumerate() {
+            lanes.crossed |= (crossed >> r & 1) << t;
+            lanes.redo |= (redo >> r & 1) << t;
         }
-        for r in each_bit(m.redo) {
-            out[r].redo |= 1 << t;
-        }
-    }
+    });
     out
-}
-
-/// The bits set in `mask`, lowest first.
-#[inline(always)]
-fn each_bit(mut mask: u32) -> impl Iterator<Item = usize> {
-    std::iter::from_fn(move || {
-        (mask != 0).then(|| {
-            let l = mask.trailing_zeros() as usize;
-            mask &= mask - 1;
-            l
-        })
-    })
 }
 
 /// What [`packet_lanes_avx2`] finds, by triangle: entry `t` has bit `r` set where ray `r`
@@ -152,69 +207,13 @@ fn each_bit(mut mask: u32) -> impl Iterator<Item = usize> {
 #[target_feature(enable = "avx2")]
 #[inline]
 pub unsafe fn packet_rays_avx2(b: &Block, rays: &BlockRays) -> [Lanes; LANES] {
-    use std::arch::x86_64::*;
-    // SAFETY (the loads): each reads the eight `f32` of one `[f32; 8]`, unaligned.
-    let load = |x: &[f32; 8]| unsafe { _mm256_loadu_ps(x.as_ptr()) };
-    let o = [load(&rays.o[0]), load(&rays.o[1]), load(&rays.o[2])];
-    let row = |r: usize| {
-        [
-            load(&rays.rows[r][0]),
-            load(&rays.rows[r][1]),
-            load(&rays.rows[r][2]),
-        ]
-    };
-    let (rx, ry) = (row(0), row(1));
-    let s = |x: f32| _mm256_set1_ps(x);
-    // `r·p` as glam's `dot` sums it: `(r.x·p.x + r.y·p.y) + r.z·p.z`.
-    let dot = |r: &[__m256; 3], p: &[__m256; 3]| {
-        _mm256_add_ps(
-            _mm256_add_ps(_mm256_mul_ps(r[0], p[0]), _mm256_mul_ps(r[1], p[1])),
-            _mm256_mul_ps(r[2], p[2]),
-        )
-    };
-    let zero = _mm256_setzero_ps();
     let mut out = [Lanes {
         crossed: 0,
         redo: 0,
     }; LANES];
-    for (t, found) in out.iter_mut().enumerate() {
-        let vertex = |k: usize| {
-            [
-                _mm256_sub_ps(s(b.v[k][0][t]), o[0]),
-                _mm256_sub_ps(s(b.v[k][1][t]), o[1]),
-                _mm256_sub_ps(s(b.v[k][2][t]), o[2]),
-            ]
-        };
-        let p = [vertex(0), vertex(1), vertex(2)];
-        let (ax, ay) = (dot(&rx, &p[0]), dot(&ry, &p[0]));
-        let (bx, by) = (dot(&rx, &p[1]), dot(&ry, &p[1]));
-        let (cx, cy) = (dot(&rx, &p[2]), dot(&ry, &p[2]));
-        let u = _mm256_sub_ps(_mm256_mul_ps(cx, by), _mm256_mul_ps(cy, bx));
-        let v = _mm256_sub_ps(_mm256_mul_ps(ax, cy), _mm256_mul_ps(ay, cx));
-        let w = _mm256_sub_ps(_mm256_mul_ps(bx, ay), _mm256_mul_ps(by, ax));
-        macro_rules! any {
-            ($pred:ident) => {
-                _mm256_or_ps(
-                    _mm256_or_ps(
-                        _mm256_cmp_ps::<$pred>(u, zero),
-                        _mm256_cmp_ps::<$pred>(v, zero),
-                    ),
-                    _mm256_cmp_ps::<$pred>(w, zero),
-                )
-            };
-        }
-        let redo = _mm256_movemask_ps(any!(_CMP_EQ_OQ)) as u32;
-        let mixed = _mm256_and_ps(any!(_CMP_LT_OQ), any!(_CMP_GT_OQ));
-        let det = _mm256_add_ps(_mm256_add_ps(u, v), w);
-        let det_abs = _mm256_andnot_ps(s(-0.0), det);
-        // Neither zero nor infinite nor NaN (a lane of no triangle).
-        let det_ok = _mm256_and_ps(
-            _mm256_cmp_ps::<_CMP_LT_OQ>(det_abs, s(f32::INFINITY)),
-            _mm256_cmp_ps::<_CMP_GT_OQ>(det_abs, zero),
-        );
-        let crossed = _mm256_movemask_ps(_mm256_andnot_ps(mixed, det_ok)) as u32 & !redo;
-        *found = Lanes { crossed, redo };
-    }
+    packet_kernel!(b, rays, |t, crossed, redo| {
+        out[t] = Lanes { crossed, redo };
+    });
     out
 }
 
@@ -393,9 +392,17 @@ mod tests {
             #[cfg(target_arch = "x86_64")]
             if crate::accel::simd::available() {
                 // SAFETY: AVX2 is present.
-                let got = unsafe { packet_lanes_avx2(&b, &BlockRays::new(&block_rays)) };
+                let packed = BlockRays::new(&block_rays);
+                let got = unsafe { packet_lanes_avx2(&b, &packed) };
+                // SAFETY: as above.
+                let by_triangle = unsafe { packet_rays_avx2(&b, &packed) };
                 for (r, ray) in block_rays.iter().enumerate() {
-                    prop_assert_eq!(got[r], lanes(&b, ray));
+                    let want = lanes(&b, ray);
+                    prop_assert_eq!(got[r], want);
+                    for (t, m) in by_triangle.iter().enumerate() {
+                        prop_assert_eq!(m.crossed >> r & 1, want.crossed >> t & 1);
+                        prop_assert_eq!(m.redo >> r & 1, want.redo >> t & 1);
+                    }
                 }
             }
         }
