@@ -1,7 +1,7 @@
 //! numpy arrays in: points and rays as float32 or float64 (any other array-like is converted
 //! by numpy first), indices as any integer type.
 
-use hugrt::accel::PACKET;
+use hugrt::accel::MAX_PACKET;
 use hugrt::geometry::{Ray, Vec3};
 use numpy::{PyArray2, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
@@ -189,9 +189,9 @@ impl Rays {
             self.tmax.get(i),
         )
     }
-    /// Rays `start..start + len` (`len` at most [`PACKET`], the rest of the array repeating
+    /// Rays `start..start + len` (`len` at most [`MAX_PACKET`], the rest of the array repeating
     /// the last), neighbours that the batch queries may walk together.
-    pub fn group(&self, start: usize, len: usize) -> [Ray; PACKET] {
+    pub fn group(&self, start: usize, len: usize) -> [Ray; MAX_PACKET] {
         std::array::from_fn(|k| self.ray(start + k.min(len.max(1) - 1)))
     }
 }

@@ -7,7 +7,7 @@ mod arrays;
 mod render;
 
 use arrays::{Rays, ints_n3, reals_n3};
-use hugrt::accel::{AnyAccel, Hit, NoCounters, PACKET, Packets};
+use hugrt::accel::{AnyAccel, Hit, MAX_PACKET, NoCounters, Packets};
 use numpy::{IntoPyArray, PyArray1, PyArray2};
 use pyo3::exceptions::{PyOSError, PyValueError};
 use pyo3::prelude::*;
@@ -267,17 +267,17 @@ impl Accel {
         py.detach(|| {
             on_pool(pool, || {
                 (
-                    t.par_chunks_mut(PACKET),
-                    prim.par_chunks_mut(PACKET),
-                    u.par_chunks_mut(PACKET),
-                    v.par_chunks_mut(PACKET),
+                    t.par_chunks_mut(MAX_PACKET),
+                    prim.par_chunks_mut(MAX_PACKET),
+                    u.par_chunks_mut(MAX_PACKET),
+                    v.par_chunks_mut(MAX_PACKET),
                 )
                     .into_par_iter()
-                    .with_min_len(RAYS_PER_TASK / PACKET)
+                    .with_min_len(RAYS_PER_TASK / MAX_PACKET)
                     .enumerate()
                     .for_each(|(c, (t, prim, u, v))| {
-                        let group = &rays.group(c * PACKET, t.len())[..t.len()];
-                        let hits = &mut [None; PACKET][..group.len()];
+                        let group = &rays.group(c * MAX_PACKET, t.len())[..t.len()];
+                        let hits = &mut [None; MAX_PACKET][..group.len()];
                         let scene = &*self.scene;
                         self.accel
                             .closest_hits(scene, group, packets, hits, &mut NoCounters);
@@ -322,12 +322,12 @@ impl Accel {
         let mut out = vec![false; rays.len()];
         py.detach(|| {
             on_pool(pool, || {
-                out.par_chunks_mut(PACKET)
-                    .with_min_len(RAYS_PER_TASK / PACKET)
+                out.par_chunks_mut(MAX_PACKET)
+                    .with_min_len(RAYS_PER_TASK / MAX_PACKET)
                     .enumerate()
                     .for_each(|(c, o)| {
-                        let group = &rays.group(c * PACKET, o.len())[..o.len()];
-                        let hits = &mut [None; PACKET][..group.len()];
+                        let group = &rays.group(c * MAX_PACKET, o.len())[..o.len()];
+                        let hits = &mut [None; MAX_PACKET][..group.len()];
                         self.accel
                             .any_hits(&*self.scene, group, packets, hits, &mut NoCounters);
                         for (o, h) in o.iter_mut().zip(hits.iter()) {

@@ -15,7 +15,7 @@
 //! world's hit is its flattened index, which must then be below 2^32 − 1.
 
 use crate::accel::{
-    AnyAccel, Hit, HitDetails, NoCounters, PACKET, Packets, Primitives, RayCounters,
+    AnyAccel, Hit, HitDetails, MAX_PACKET, NoCounters, Packets, Primitives, RayCounters,
 };
 use crate::geometry::{Ray, Vec3};
 use crate::world::{InstanceHit, World};
@@ -312,8 +312,8 @@ pub fn trace_into<P: Primitives>(
     out: &mut [Option<Hit>],
 ) {
     assert_eq!(out.len(), rays.len(), "one answer per ray");
-    out.par_chunks_mut(PACKET)
-        .zip(rays.par_chunks(PACKET))
+    out.par_chunks_mut(MAX_PACKET)
+        .zip(rays.par_chunks(MAX_PACKET))
         .with_min_len(32)
         .for_each(|(o, r)| {
             if any_hit {

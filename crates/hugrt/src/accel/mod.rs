@@ -48,7 +48,7 @@ pub use hug::{Hug, HugSettings};
 pub use kdtree::{KdTree, KdTreeSettings, Layout as KdTreeLayout, SplitRule as KdTreeSplit};
 pub use mailbox::Mailbox;
 pub use octree::{Octree, OctreeSettings};
-pub use packet::{PACKET, Packets};
+pub use packet::{MAX_PACKET, PACKET, Packets};
 pub use query::{AnyHit, Closest, EveryHit, Hit, HitSink};
 pub use reach::Reach;
 pub use rgrid::{RecursiveGrid, RecursiveGridSettings};
@@ -271,6 +271,9 @@ pub trait Accel: Sized + Send + Sync {
     /// of one ray on coherent rays, as measured (`docs/measurements.md`, "Packets"): where it
     /// is not, [`Packets::Auto`] walks every ray alone.
     const PACKETS_PAY: bool = false;
+    /// Rays a packet of this structure holds (at most [`MAX_PACKET`]): the groups of
+    /// neighbouring rays that [`Accel::closest_hits`] and [`Accel::any_hits`] walk together.
+    const PACKET_RAYS: usize = PACKET;
 
     /// Builds the structure with typed settings, e.g. `Bvh::with_settings(&scene,
     /// &BvhSettings { leaf: 4, ..Default::default() })`: an error names a value out of its
@@ -308,7 +311,7 @@ pub trait Accel: Sized + Send + Sync {
         counters: &mut C,
     );
 
-    /// The walk of a packet ([`packet`]): up to [`PACKET`] rays, each traceable, near
+    /// The walk of a packet ([`packet`]): up to [`Accel::PACKET_RAYS`] rays, each traceable, near
     /// ([`Reach::is_near`]) and without subnormal direction components
     /// ([`Ray::without_subnormal_direction`]), each offering its hits to its own sink as
     /// [`Accel::query`] would. Callers go through [`Accel::closest_hits`] and
@@ -562,15 +565,19 @@ fn first_hits<A: Accel, P: Primitives, C: Counters, S: HitSink>(
         accel.query(prims, ray, &mut s, counters);
         hit(&s)
     };
-    for (group, answers) in rays.chunks(PACKET).zip(out.chunks_mut(PACKET)) {
+    const { assert!(A::PACKET_RAYS <= MAX_PACKET && A::PACKET_RAYS > 0) };
+    for (group, answers) in rays
+        .chunks(A::PACKET_RAYS)
+        .zip(out.chunks_mut(A::PACKET_RAYS))
+    {
         if !packets.walk_together(group, A::PACKETS_PAY) {
             for (ray, answer) in group.iter().zip(answers) {
                 *answer = alone(ray, counters);
             }
             continue;
         }
-        let mut walked = [group[0]; PACKET];
-        let mut lane_of = [0usize; PACKET];
+        let mut walked = [group[0]; MAX_PACKET];
+        let mut lane_of = [0usize; MAX_PACKET];
         let mut n = 0;
         for (k, ray) in group.iter().enumerate() {
             if ray.is_traceable() {
@@ -584,7 +591,7 @@ fn first_hits<A: Accel, P: Primitives, C: Counters, S: HitSink>(
             }
             answers[k] = alone(ray, counters);
         }
-        let mut sinks: [S; PACKET] = std::array::from_fn(|l| sink(walked[l].tmax));
+        let mut sinks: [S; MAX_PACKET] = std::array::from_fn(|l| sink(walked[l].tmax));
         accel.query_packet(prims, &walked[..n], &mut sinks[..n], counters);
         for l in 0..n {
             answers[lane_of[l]] = hit(&sinks[l]);

@@ -86,6 +86,7 @@ pub struct Octree {
 
 impl Accel for Octree {
     const NAME: &'static str = "octree";
+    const PACKET_RAYS: usize = crate::accel::hierarchy::GRID_PACKET;
     type Settings = OctreeSettings;
 
     fn build_checked<P: Primitives>(

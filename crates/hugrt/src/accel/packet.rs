@@ -17,8 +17,13 @@
 
 use super::Ray;
 
-/// Rays a packet holds: eight lanes, one AVX register of `f32`.
+/// Rays a packet of the bvh holds, and the group of the packet kernels: eight lanes, one AVX
+/// register of `f32`.
 pub const PACKET: usize = 8;
+
+/// Rays a packet holds at most ([`super::Accel::PACKET_RAYS`]): the grids' packets are four
+/// groups of [`PACKET`], so that the work of each slice is shared by more rays.
+pub const MAX_PACKET: usize = 32;
 
 /// The lanes of a packet's mask (bit `l` for ray `l`), lowest first.
 #[inline(always)]

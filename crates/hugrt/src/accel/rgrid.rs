@@ -200,6 +200,7 @@ pub const EG95: Preset = Preset {
 
 impl Accel for RecursiveGrid {
     const NAME: &'static str = "rgrid";
+    const PACKET_RAYS: usize = crate::accel::hierarchy::GRID_PACKET;
     type Settings = RecursiveGridSettings;
 
     fn build_checked<P: Primitives>(

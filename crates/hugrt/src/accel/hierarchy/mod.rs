@@ -46,6 +46,7 @@ mod build;
 mod cells;
 mod header;
 mod packet;
+pub(crate) use packet::GRID_PACKET;
 mod plan;
 mod stats;
 mod subdivide;

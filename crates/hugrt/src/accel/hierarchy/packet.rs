@@ -22,8 +22,8 @@
 //! may not) is walked ray by ray.
 
 use super::{GRID_TAG, GridHierarchy, NO_FRAME};
-use crate::accel::block::{Block, BlockRay, BlockRays, LANES};
-use crate::accel::packet::{PACKET, each_lane};
+use crate::accel::block::{Block, BlockRay, BlockRays, LANES, Lanes as Lanes8};
+use crate::accel::packet::{MAX_PACKET, PACKET, each_lane};
 use crate::accel::{Counters, HitSink, Mailbox, Primitives};
 use crate::geometry::{PreparedRay, Ray, Vec3, crossing_t, intersect_triangle};
 
@@ -35,7 +35,15 @@ const WIDEN: f32 = 1.0 / (1 << 19) as f32;
 /// `1 + 2·gamma(3)`, as the single walk's (`walk::ROBUST_FAR`).
 const ROBUST_FAR: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
 
-type Lanes = [f32; PACKET];
+/// Rays a grid packet holds: four groups of the kernel's [`PACKET`]. A camera's row of 32
+/// neighbouring pixels shares a slice's cells; a packet of 8 paid for its slices' bookkeeping
+/// no better than the single walk (measured in `docs/measurements.md`).
+pub(crate) const GRID_PACKET: usize = MAX_PACKET;
+
+/// Groups of [`PACKET`] rays in a grid packet.
+const GROUPS: usize = GRID_PACKET / PACKET;
+
+type Lanes = [f32; GRID_PACKET];
 
 /// The least of a row of lanes.
 fn min_of(x: &Lanes) -> f32 {
@@ -50,17 +58,17 @@ fn max_of(x: &Lanes) -> f32 {
 /// What a packet carries from grid to grid: its prepared rays and, per ray, its sink, its
 /// mailbox and whether its sink has stopped the walk.
 pub(super) struct Packet<'a, S> {
-    rays: &'a [PreparedRay; PACKET],
-    /// The rays as the packet triangle kernel reads them.
-    block_rays: &'a BlockRays,
+    rays: &'a [PreparedRay; GRID_PACKET],
+    /// The rays as the packet triangle kernel reads them, by group of [`PACKET`].
+    block_rays: &'a [BlockRays; GROUPS],
     sinks: &'a mut [S],
-    mail: &'a mut [Mailbox; PACKET],
+    mail: &'a mut [Mailbox; GRID_PACKET],
     /// Rays whose sink has not stopped the walk.
     live: u32,
 }
 
 impl GridHierarchy {
-    /// The query of a packet ([`crate::accel::Accel::query_packet`]): up to [`PACKET`]
+    /// The query of a packet ([`crate::accel::Accel::query_packet`]): up to [`GRID_PACKET`]
     /// traceable, near rays, each with its own sink.
     pub fn query_packet<P: Primitives, C: Counters, S: HitSink>(
         &self,
@@ -69,22 +77,41 @@ impl GridHierarchy {
         sinks: &mut [S],
         counters: &mut C,
     ) {
-        let n = rays.len().min(sinks.len()).min(PACKET);
+        let n = rays.len().min(sinks.len()).min(GRID_PACKET);
         if n == 0 || self.store.is_empty() {
             return;
         }
-        let prepared: [PreparedRay; PACKET] =
+        // A packet that misses the world grid needs none of the set-up below (rays, kernels'
+        // lanes, mailboxes), which is most of such a packet's cost.
+        let world = &self.grids[0];
+        if world.frame == NO_FRAME {
+            let enters = rays[..n].iter().zip(&sinks[..n]).any(|(r, s)| {
+                let inv = Vec3::ONE / r.dir;
+                let ta = (world.min - r.origin) * inv;
+                let tb = (world.max - r.origin) * inv;
+                r.tmin.max(ta.min(tb).max_element())
+                    <= s.tmax().min(ta.max(tb).min_element() * ROBUST_FAR)
+            });
+            if !enters {
+                return;
+            }
+        }
+        let prepared: [PreparedRay; GRID_PACKET] =
             std::array::from_fn(|l| PreparedRay::new(&rays[l.min(n - 1)]));
-        let mut mail: [Mailbox; PACKET] = std::array::from_fn(|_| Mailbox::default());
-        let block_rays = BlockRays::new(&std::array::from_fn(|l| BlockRay::new(&prepared[l])));
+        let mut mail: [Mailbox; GRID_PACKET] = std::array::from_fn(|_| Mailbox::default());
+        let block_rays: [BlockRays; GROUPS] = std::array::from_fn(|g| {
+            BlockRays::new(&std::array::from_fn(|l| {
+                BlockRay::new(&prepared[g * PACKET + l])
+            }))
+        });
         let mut packet = Packet {
             rays: &prepared,
             block_rays: &block_rays,
             sinks: &mut sinks[..n],
             mail: &mut mail,
-            live: (1 << n) - 1,
+            live: u32::MAX >> (32 - n),
         };
-        self.walk_packet(0, prims, &mut packet, (1 << n) - 1, counters);
+        self.walk_packet(0, prims, &mut packet, u32::MAX >> (32 - n), counters);
     }
 
     /// Walks grid `g` with the rays of `mask` (and still live): compiled for AVX2 where the
@@ -154,7 +181,7 @@ impl GridHierarchy {
                 Some(f) => (f.point(r.origin), f.dir(r.dir)),
             }
         };
-        let od: [(Vec3, Vec3); PACKET] = std::array::from_fn(in_frame);
+        let od: [(Vec3, Vec3); GRID_PACKET] = std::array::from_fn(in_frame);
         let d0 = od[first].1;
         let k = d0.abs().max_position();
         let octant = d0.is_negative_bitmask();
@@ -174,8 +201,8 @@ impl GridHierarchy {
         let su = lanes(&|l| od[l].1[u] / od[l].1[k]);
         let sv = lanes(&|l| od[l].1[v] / od[l].1[k]);
         // Each ray's interval in the grid, by the single walk's slab test.
-        let mut t0 = [0f32; PACKET];
-        let mut t1 = [0f32; PACKET];
+        let mut t0 = [0f32; GRID_PACKET];
+        let mut t1 = [0f32; GRID_PACKET];
         let mut rays = 0u32;
         for (l, (o, d)) in od.iter().enumerate() {
             if mask >> l & 1 == 0 {
@@ -211,11 +238,16 @@ impl GridHierarchy {
         let (stride_u, stride_v) = (stride[u], stride[v]);
         // A coordinate's cell, clamped to the grid, as `GridHeader::coord` finds it
         // (truncation is the floor of the non-negative values that survive the clamp).
-        let cell =
-            |x: f32, min: f32, inv: f32, top: f32| ((x - min) * inv).max(0.0).min(top) as i32;
+        let cell = |x: f32, min: f32, inv: f32, top: f32| {
+            let c = ((x - min) * inv).max(0.0).min(top);
+            // SAFETY: `c` lies in `[0, top]`, finite and below 2^31 (a grid has fewer cells a
+            // side): `max` returns 0 for a NaN, `min` and `max` clamp the rest. The saturating
+            // `as` cast was 6% of a packet walk's time.
+            unsafe { c.to_int_unchecked::<i32>() }
+        };
         // Each ray's interval ends at its nearest hit so far: `-inf` for rays not walking
         // this grid, whose segments are then empty.
-        let mut end = [f32::NEG_INFINITY; PACKET];
+        let mut end = [f32::NEG_INFINITY; GRID_PACKET];
         for (l, e) in end.iter_mut().enumerate() {
             if rays >> l & 1 != 0 {
                 *e = t1[l];
@@ -223,9 +255,9 @@ impl GridHierarchy {
         }
         // The segments along the major axis, `[t0, end]`, widened: `[+inf, -inf]` where empty.
         let segments = |end: &Lanes| -> (Lanes, Lanes) {
-            let mut lo = [0f32; PACKET];
-            let mut hi = [0f32; PACKET];
-            for l in 0..PACKET {
+            let mut lo = [0f32; GRID_PACKET];
+            let mut hi = [0f32; GRID_PACKET];
+            for l in 0..GRID_PACKET {
                 let a = ok[l] + t0[l] * dk[l];
                 let b = ok[l] + end[l] * dk[l];
                 let keep = end[l] >= t0[l];
@@ -252,10 +284,10 @@ impl GridHierarchy {
             let (lo, hi) = segments(&end);
             // Each ray's rectangle in this slice, widened, in the grid's coordinates: empty
             // (`+inf` to `-inf`) where the ray is not in the slice.
-            let mut f = [[0f32; PACKET]; 4];
+            let mut f = [[0f32; GRID_PACKET]; 4];
             let mut in_slice = 0u32;
             let mut beyond = 0u32;
-            for l in 0..PACKET {
+            for l in 0..GRID_PACKET {
                 let (c0, c1) = (lo[l].max(plane_lo), hi[l].min(plane_hi));
                 let (u0, u1) = (ou[l] + (c0 - ok[l]) * su[l], ou[l] + (c1 - ok[l]) * su[l]);
                 let (v0, v1) = (ov[l] + (c0 - ok[l]) * sv[l], ov[l] + (c1 - ok[l]) * sv[l]);
@@ -283,7 +315,7 @@ impl GridHierarchy {
                 let v_hi = cell(max_of(&f[3]), min_v, inv_v, top_v) as u32;
                 // Each ray's own cells, found at the slice's first occupied cell: most
                 // slices of most packets hold none.
-                let mut r: Option<[[i32; PACKET]; 4]> = None;
+                let mut r: Option<[[i32; GRID_PACKET]; 4]> = None;
                 for cv in v_lo..=v_hi {
                     for cu in u_lo..=u_hi {
                         let idx = slice_first + cu as usize * stride_u + cv as usize * stride_v;
@@ -292,8 +324,8 @@ impl GridHierarchy {
                             continue;
                         };
                         let r = r.get_or_insert_with(|| {
-                            let mut r = [[0i32; PACKET]; 4];
-                            for l in 0..PACKET {
+                            let mut r = [[0i32; GRID_PACKET]; 4];
+                            for l in 0..GRID_PACKET {
                                 let inside = in_slice >> l & 1 != 0;
                                 r[0][l] = if inside {
                                     cell(f[0][l], min_u, inv_u, top_u)
@@ -320,7 +352,7 @@ impl GridHierarchy {
                         });
                         let (fu, fv) = (cu as i32, cv as i32);
                         let mut here = 0u32;
-                        for l in 0..PACKET {
+                        for l in 0..GRID_PACKET {
                             let inside =
                                 r[0][l] <= fu && fu <= r[2][l] && r[1][l] <= fv && fv <= r[3][l];
                             here |= (inside as u32) << l;
@@ -426,8 +458,23 @@ impl GridHierarchy {
                     .expect("the cell's first entries are triangles");
                 block.set(t, &tri, r);
             }
-            // SAFETY: `simd` is set only where AVX2 is present (`build`).
-            let found = unsafe { crate::accel::block::packet_rays_avx2(&block, packet.block_rays) };
+            // Each triangle's rays (bit `r` for ray `r`), a group of eight rays at a time.
+            let mut found = [Lanes8 {
+                crossed: 0,
+                redo: 0,
+            }; LANES];
+            for g in 0..GROUPS {
+                if (here & packet.live) >> (g * PACKET) & 0xff == 0 {
+                    continue;
+                }
+                // SAFETY: `simd` is set only where AVX2 is present (`build`).
+                let group =
+                    unsafe { crate::accel::block::packet_rays_avx2(&block, &packet.block_rays[g]) };
+                for (all, m) in found.iter_mut().zip(&group) {
+                    all.crossed |= m.crossed << (g * PACKET);
+                    all.redo |= m.redo << (g * PACKET);
+                }
+            }
             for _ in 0..chunk.len() * (here & packet.live).count_ones() as usize {
                 counters.prim_test(level);
             }
