@@ -50,8 +50,9 @@ class Accel:
     ]:
         """Closest hits: (t, primitive, u, v); a miss is t = inf, primitive = -1.
 
-        packets: "auto" (neighbouring rays walked eight together where they are coherent
-        and the structure's packets pay), "on" or "off"; the same hits either way."""
+        packets: "auto" (neighbouring rays walked together, 8 for the bvh and 32 for the
+        grids, where they are coherent and the structure's packets pay), "on" or "off"; the
+        same hits either way."""
     def occluded(
         self,
         origins: _Reals,

@@ -115,9 +115,10 @@ struct RenderArgs {
     allow_empty: bool,
     #[command(flatten)]
     view: ViewArgs,
-    /// Walk groups of 8 neighbouring eye rays, and their shadow rays to each light,
-    /// together: auto, where a group looks coherent and the structure's packet walk pays (the
-    /// bvh's); on, every group; off, every ray alone. The image is the same either way.
+    /// Walk groups of neighbouring eye rays (8 for the bvh, 32 for the grids), and their
+    /// shadow rays to each light, together: auto, where a group looks coherent and the
+    /// structure's packet walk pays (the bvh's, the grid's, the HUG's, the recursive grid's);
+    /// on, every group; off, every ray alone. The image is the same either way.
     #[arg(long, default_value = "auto", value_parser = clap::builder::PossibleValuesParser::new(Packets::NAMES).map(|s| s.parse::<Packets>().expect("a listed mode")))]
     packets: Packets,
 }
@@ -155,10 +156,11 @@ struct TraceArgs {
     /// ray and level (a second, untimed pass).
     #[arg(long)]
     counters: bool,
-    /// Walk groups of 8 neighbouring rays together (closest and any hits): auto, where a
-    /// group looks coherent (directions within 11° in one octant: a camera's rays, a
-    /// light's) and the structure's packet walk pays (the bvh's); on, every group, in every
-    /// structure; off, every ray alone. The hits are the same either way.
+    /// Walk groups of neighbouring rays together (8 for the bvh, 32 for the grids; closest
+    /// and any hits): auto, where a group looks coherent (directions within 11° in one
+    /// octant: a camera's rays, a light's) and the structure's packet walk pays (the bvh's,
+    /// the grid's, the HUG's, the recursive grid's); on, every group, in every structure;
+    /// off, every ray alone. The hits are the same either way.
     #[arg(long, default_value = "auto", value_parser = clap::builder::PossibleValuesParser::new(Packets::NAMES).map(|s| s.parse::<Packets>().expect("a listed mode")))]
     packets: Packets,
 }
@@ -254,9 +256,10 @@ struct BenchArgs {
     #[arg(short, long)]
     quiet: bool,
     /// Packets for camera and Whitted rays (repeatable: each structure is measured with each
-    /// mode, e.g. `--packets on --packets off`): auto, groups of 8 neighbouring rays that
-    /// look coherent walk together where the structure's packet walk pays (the bvh's); on,
-    /// every group, in every structure; off, every ray alone.
+    /// mode, e.g. `--packets on --packets off`): auto, groups of neighbouring rays (8 for the
+    /// bvh, 32 for the grids) that look coherent walk together where the structure's packet
+    /// walk pays (bvh, grid, hug, rgrid); on, every group, in every structure; off, every ray
+    /// alone. `reproduce` walks every ray alone, as the papers count.
     #[arg(long = "packets", default_value = "auto", value_parser = clap::builder::PossibleValuesParser::new(Packets::NAMES).map(|s| s.parse::<Packets>().expect("a listed mode")))]
     packets: Vec<Packets>,
 }

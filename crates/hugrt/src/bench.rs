@@ -75,6 +75,16 @@ impl<'a> Candidate<'a> {
         }
     }
 
+    /// The structure a spec names, every ray walked alone: the papers' measurement, whose
+    /// counters (#pit, #vt, SCG97 §3) are one ray's walk; a packet's differ (a cell met once
+    /// for its rays, more triangles tested), though not its hits.
+    pub fn alone(scene: &'a Scene, spec: &str) -> Self {
+        Candidate {
+            packets: Packets::Off,
+            ..Candidate::spec(scene, spec)
+        }
+    }
+
     /// A row's name for `spec` measured with `packets`: the spec, with ` packets=MODE` after
     /// it when the mode is not the default or when `always` (several modes are compared).
     pub fn label_of(spec: &str, packets: Packets, always: bool) -> String {

@@ -105,6 +105,7 @@ pub(crate) fn check_size(n: usize) -> Result<(), SpecError> {
 impl Accel for Grid {
     const NAME: &'static str = "grid";
     const PACKET_RAYS: usize = crate::accel::hierarchy::GRID_PACKET;
+    const PACKETS_PAY: bool = true;
     type Settings = GridSettings;
 
     fn build_checked<P: Primitives>(prims: &P, settings: &GridSettings) -> Result<Self, SpecError> {

@@ -201,6 +201,7 @@ pub const EG95: Preset = Preset {
 impl Accel for RecursiveGrid {
     const NAME: &'static str = "rgrid";
     const PACKET_RAYS: usize = crate::accel::hierarchy::GRID_PACKET;
+    const PACKETS_PAY: bool = true;
     type Settings = RecursiveGridSettings;
 
     fn build_checked<P: Primitives>(

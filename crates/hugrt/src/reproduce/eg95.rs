@@ -101,7 +101,7 @@ pub(super) fn eg95_kitchens(o: &super::Options) -> Output {
         let scene = generate(kind, *size, 1).expect("a generated kind");
         let candidates: Vec<Candidate> = STRUCTURES
             .iter()
-            .map(|(_, spec)| Candidate::spec(&scene, spec))
+            .map(|(_, spec)| Candidate::alone(&scene, spec))
             .collect();
         match bench_scene(name, &scene, &candidates, workload, repeat, &mut |_| {}) {
             Ok(measured) => {

@@ -165,7 +165,7 @@ pub(super) fn havran_splits(o: &super::Options) -> Output {
         });
         let candidates: Vec<Candidate> = METHODS
             .iter()
-            .map(|(_, spec)| Candidate::spec(&scene, spec))
+            .map(|(_, spec)| Candidate::alone(&scene, spec))
             .collect();
         let measured = match bench_scene(name, &scene, &candidates, workload, repeat, &mut |_| {}) {
             Ok(m) => m,
@@ -565,7 +565,7 @@ pub(super) fn havran_layouts(o: &super::Options) -> Output {
         .iter()
         .map(|l| format!("kdtree:preset=havran,layout={l}"))
         .collect();
-    let candidates: Vec<Candidate> = specs.iter().map(|s| Candidate::spec(&scene, s)).collect();
+    let candidates: Vec<Candidate> = specs.iter().map(|s| Candidate::alone(&scene, s)).collect();
     let mut problems = Vec::new();
     let measured = bench_scene(
         &name,

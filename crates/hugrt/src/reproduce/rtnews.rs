@@ -82,7 +82,7 @@ pub(super) fn rtnews_spd(o: &super::Options) -> Output {
         };
         let candidates: Vec<Candidate> = table
             .iter()
-            .map(|(_, spec, _, _)| Candidate::spec(&scene, spec))
+            .map(|(_, spec, _, _)| Candidate::alone(&scene, spec))
             .collect();
         let workload = Workload::Whitted {
             width: Some(side),

@@ -139,7 +139,7 @@ pub(super) fn scg97_levels(o: &super::Options) -> Output {
     let zoom = zoomed(&scene);
     for ((view, _), s) in VIEWS.iter().zip([&scene, &zoom]) {
         let candidates: Vec<Candidate> =
-            specs.iter().map(|spec| Candidate::spec(s, spec)).collect();
+            specs.iter().map(|spec| Candidate::alone(s, spec)).collect();
         let measured = match bench_scene(view, s, &candidates, workload, repeat, &mut |_| {}) {
             Ok(m) => m,
             Err(e) => {
@@ -641,7 +641,7 @@ pub(super) fn scg97_improved(o: &super::Options) -> Output {
             .collect();
         let candidates: Vec<Candidate> = specs
             .iter()
-            .map(|(_, s)| Candidate::spec(&scene, s))
+            .map(|(_, s)| Candidate::alone(&scene, s))
             .collect();
         match bench_scene(&name, &scene, &candidates, workload, repeat, &mut |_| {}) {
             Ok(m) => {
