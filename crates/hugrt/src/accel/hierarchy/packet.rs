@@ -64,14 +64,42 @@ const GROUPS: usize = GRID_PACKET / PACKET;
 
 type Lanes = [f32; GRID_PACKET];
 
-/// The least of a row of lanes.
-fn min_of(x: &Lanes) -> f32 {
-    x.iter().fold(f32::INFINITY, |a, &b| a.min(b))
+/// The lesser of two values without `f32::min`'s care for NaN (which costs a comparison and a
+/// blend a lane more: `min` and `max` were 17% of the bunny's packet walk). The lanes it
+/// compares are never NaN: a ray's segment ends are finite where it walks the grid, and the
+/// lanes of rays outside a slice, where they may not be, are replaced after.
+#[inline(always)]
+fn lesser(a: f32, b: f32) -> f32 {
+    if a < b { a } else { b }
 }
 
-/// The greatest of a row of lanes.
+/// The greater of two values, as [`lesser`].
+#[inline(always)]
+fn greater(a: f32, b: f32) -> f32 {
+    if a > b { a } else { b }
+}
+
+/// The least of a row of lanes: eight columns first, lane-wise (a register at a time), then
+/// the eight; folded one lane after another, the chain of 32 comparisons was 10% of a walk.
+fn min_of(x: &Lanes) -> f32 {
+    let mut m: [f32; PACKET] = std::array::from_fn(|i| x[i]);
+    for group in x.chunks_exact(PACKET).skip(1) {
+        for (m, &g) in m.iter_mut().zip(group) {
+            *m = lesser(*m, g);
+        }
+    }
+    m.iter().fold(f32::INFINITY, |a, &b| lesser(a, b))
+}
+
+/// The greatest of a row of lanes, as [`min_of`].
 fn max_of(x: &Lanes) -> f32 {
-    x.iter().fold(f32::NEG_INFINITY, |a, &b| a.max(b))
+    let mut m: [f32; PACKET] = std::array::from_fn(|i| x[i]);
+    for group in x.chunks_exact(PACKET).skip(1) {
+        for (m, &g) in m.iter_mut().zip(group) {
+            *m = greater(*m, g);
+        }
+    }
+    m.iter().fold(f32::NEG_INFINITY, |a, &b| greater(a, b))
 }
 
 /// What a packet carries from grid to grid: its prepared rays and, per ray, its sink, its
@@ -258,10 +286,12 @@ impl GridHierarchy {
         // A coordinate's cell, clamped to the grid, as `GridHeader::coord` finds it
         // (truncation is the floor of the non-negative values that survive the clamp).
         let cell = |x: f32, min: f32, inv: f32, top: f32| {
-            let c = ((x - min) * inv).max(0.0).min(top);
+            let c = (x - min) * inv;
+            let c = if c > 0.0 { c } else { 0.0 };
+            let c = if c < top { c } else { top };
             // SAFETY: `c` lies in `[0, top]`, finite and below 2^31 (a grid has fewer cells a
-            // side): `max` returns 0 for a NaN, `min` and `max` clamp the rest. The saturating
-            // `as` cast was 6% of a packet walk's time.
+            // side): a NaN fails the first comparison and becomes 0, the two clamp the rest.
+            // The saturating `as` cast was 6% of a packet walk's time.
             unsafe { c.to_int_unchecked::<i32>() }
         };
         // Each ray's interval ends at its nearest hit so far: `-inf` for rays not walking
@@ -281,12 +311,12 @@ impl GridHierarchy {
                 let b = ok[l] + end[l] * dk[l];
                 let keep = end[l] >= t0[l];
                 lo[l] = if keep {
-                    a.min(b) - widen[l]
+                    lesser(a, b) - widen[l]
                 } else {
                     f32::INFINITY
                 };
                 hi[l] = if keep {
-                    a.max(b) + widen[l]
+                    greater(a, b) + widen[l]
                 } else {
                     f32::NEG_INFINITY
                 };
@@ -307,15 +337,31 @@ impl GridHierarchy {
             let mut in_slice = 0u32;
             let mut beyond = 0u32;
             for l in 0..GRID_PACKET {
-                let (c0, c1) = (lo[l].max(plane_lo), hi[l].min(plane_hi));
+                let (c0, c1) = (greater(lo[l], plane_lo), lesser(hi[l], plane_hi));
                 let (u0, u1) = (ou[l] + (c0 - ok[l]) * su[l], ou[l] + (c1 - ok[l]) * su[l]);
                 let (v0, v1) = (ov[l] + (c0 - ok[l]) * sv[l], ov[l] + (c1 - ok[l]) * sv[l]);
                 let inside = c0 <= c1;
                 let (inf, ninf) = (f32::INFINITY, f32::NEG_INFINITY);
-                f[0][l] = if inside { u0.min(u1) - widen[l] } else { inf };
-                f[1][l] = if inside { v0.min(v1) - widen[l] } else { inf };
-                f[2][l] = if inside { u0.max(u1) + widen[l] } else { ninf };
-                f[3][l] = if inside { v0.max(v1) + widen[l] } else { ninf };
+                f[0][l] = if inside {
+                    lesser(u0, u1) - widen[l]
+                } else {
+                    inf
+                };
+                f[1][l] = if inside {
+                    lesser(v0, v1) - widen[l]
+                } else {
+                    inf
+                };
+                f[2][l] = if inside {
+                    greater(u0, u1) + widen[l]
+                } else {
+                    ninf
+                };
+                f[3][l] = if inside {
+                    greater(v0, v1) + widen[l]
+                } else {
+                    ninf
+                };
                 in_slice |= (inside as u32) << l;
                 let ahead = if forward {
                     hi[l] > plane_hi
