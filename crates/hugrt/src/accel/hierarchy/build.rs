@@ -3,7 +3,7 @@
 //! passes, no allocation per cell: RTNews "Quicker grid generation"). Every box is widened by
 //! the margin of the module documentation before it is binned.
 
-use super::cells::CellIndex;
+use super::cells::{BlockIndex, CellIndex};
 use super::header::GridHeader;
 use super::plan::{GridPlan, Prune, Subdivision};
 use super::{GRID_TAG, GridHierarchy, MAX_REFS_PER_ITEM, MIN_REF_BUDGET, NO_FRAME};
@@ -299,8 +299,10 @@ impl GridHierarchy {
                 refs.par_extend(pairs.par_iter().map(|&p| p as u32));
             }
             refs.shrink_to_fit();
+            let cells = cells.finish(refs.len());
             return Ok(GridHierarchy {
-                cells: cells.finish(refs.len()),
+                blocks: BlockIndex::new(&grids, &cells),
+                cells,
                 refs,
                 store,
                 grids,
@@ -334,6 +336,7 @@ impl GridHierarchy {
         let refs: Vec<u32> = pairs.par_iter().map(|&p| p as u32).collect();
         drop(pairs);
         Ok(GridHierarchy {
+            blocks: BlockIndex::new(&grids, &cells),
             store,
             grids,
             frames,

@@ -81,3 +81,84 @@ impl CellIndex {
         8 * self.occupied.capacity() + 4 * (self.rank.capacity() + self.starts.capacity())
     }
 }
+
+/// Cells a block spans along each axis: [`BlockIndex`].
+pub(super) const BLOCK: u32 = 4;
+
+/// Which blocks of `BLOCK`³ cells of each grid hold an occupied cell: one bit a block, a
+/// 64th of a bit a cell. A packet crosses the empty blocks of a fine grid a block of slices
+/// at a time rather than slice by slice ([`super::packet`]): EG95's uniform cells are finest
+/// where the objects are, and a camera's packets cross mostly empty space to reach them.
+pub(super) struct BlockIndex {
+    bits: Vec<u64>,
+    /// Each grid's first block among all grids' blocks, and its blocks per axis.
+    grids: Vec<(usize, [u32; 3])>,
+}
+
+impl BlockIndex {
+    /// The blocks of `grids`, whose occupied cells `cells` lists.
+    pub(super) fn new(grids: &[super::header::GridHeader], cells: &CellIndex) -> BlockIndex {
+        let mut first = 0usize;
+        let layout: Vec<(usize, [u32; 3])> = grids
+            .iter()
+            .map(|h| {
+                let res = h.res.map(|r| r.div_ceil(BLOCK));
+                let me = first;
+                first += res.iter().map(|&r| r as usize).product::<usize>();
+                (me, res)
+            })
+            .collect();
+        let mut bits = vec![0u64; first.div_ceil(64)];
+        for (h, &(start, res)) in grids.iter().zip(&layout) {
+            let (c0, n) = (h.first_cell as usize, h.cells());
+            let (rx, ry) = (h.res[0] as usize, h.res[1] as usize);
+            let mut i = c0;
+            while i < c0 + n {
+                let w = cells.occupied[i / 64] >> (i % 64);
+                if w == 0 {
+                    i = (i / 64 + 1) * 64;
+                    continue;
+                }
+                i += w.trailing_zeros() as usize;
+                if i >= c0 + n {
+                    break;
+                }
+                let local = i - c0;
+                let (x, y, z) = (local % rx, local / rx % ry, local / (rx * ry));
+                let b = start
+                    + x / BLOCK as usize
+                    + (y / BLOCK as usize) * res[0] as usize
+                    + (z / BLOCK as usize) * res[0] as usize * res[1] as usize;
+                bits[b / 64] |= 1 << (b % 64);
+                i += 1;
+            }
+        }
+        BlockIndex {
+            bits,
+            grids: layout,
+        }
+    }
+
+    /// Whether any block of grid `g` with block coordinates `lo[a]..=hi[a]` on every axis `a`
+    /// holds an occupied cell.
+    #[inline]
+    pub(super) fn any(&self, g: usize, lo: [u32; 3], hi: [u32; 3]) -> bool {
+        let (start, res) = self.grids[g];
+        for z in lo[2]..=hi[2] {
+            for y in lo[1]..=hi[1] {
+                let row = start + (z as usize * res[1] as usize + y as usize) * res[0] as usize;
+                for x in lo[0]..=hi[0] {
+                    let b = row + x as usize;
+                    if self.bits[b / 64] >> (b % 64) & 1 != 0 {
+                        return true;
+                    }
+                }
+            }
+        }
+        false
+    }
+
+    pub(super) fn memory_bytes(&self) -> usize {
+        8 * self.bits.capacity() + std::mem::size_of::<(usize, [u32; 3])>() * self.grids.capacity()
+    }
+}

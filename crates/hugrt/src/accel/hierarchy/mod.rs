@@ -59,7 +59,7 @@ pub use stats::{GridLevelStats, LevelView};
 use super::Frame;
 use super::store::PrimStore;
 use crate::geometry::Aabb;
-use cells::CellIndex;
+use cells::{BlockIndex, CellIndex};
 use header::GridHeader;
 
 /// A reference with this bit set names a grid, not a store entry.
@@ -84,6 +84,8 @@ pub(crate) struct GridHierarchy {
     grids: Vec<GridHeader>,
     frames: Vec<Frame>,
     cells: CellIndex,
+    /// Which blocks of cells hold any, for the packet walk.
+    blocks: BlockIndex,
     refs: Vec<u32>,
     /// Whether cells test their triangles eight at a time (`accel::simd`): the processor has AVX2,
     /// the store's offsets fit the gathers, and the spec did not turn it off.
@@ -132,6 +134,7 @@ impl GridHierarchy {
         self.grids.capacity() * std::mem::size_of::<GridHeader>()
             + self.frames.capacity() * std::mem::size_of::<Frame>()
             + self.cells.memory_bytes()
+            + self.blocks.memory_bytes()
             + 4 * self.refs.capacity()
     }
 
