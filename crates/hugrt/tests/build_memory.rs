@@ -70,8 +70,10 @@ fn crowded_cells_left_uncut_cost_no_more_than_a_chunk() {
         .iter()
         .find(|(k, _)| k == "left_uncut_by_budget")
         .map(|e| e.1);
+    // 708 since the root's budget counts its shifted planes (1,000 and more before, when the
+    // shift could take the root past its budget).
     assert!(
-        uncut.is_some_and(|u| u > 1000.0),
+        uncut.is_some_and(|u| u > 500.0),
         "{uncut:?}: the budget must drop candidates"
     );
     // A chunk is at most 2^18 objects of 64 pairs of 8 bytes (134 MB) beside the structure

@@ -109,7 +109,7 @@ impl GridHierarchy {
                             children: Vec::new(),
                             margin: binner.margin,
                         };
-                        Self::fit_budget(&mut h, &it);
+                        Self::fit_budget(&mut h, &it, false);
                         let mut out = Vec::new();
                         binner.bin(&h, &it, 0..it.len(), &(0..u64::MAX), &mut out);
                         out.sort_by_key(|&p| p >> 32);
