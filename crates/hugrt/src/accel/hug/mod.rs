@@ -67,12 +67,18 @@ use crate::geometry::Ray;
 ///   (stadium 28 s with `cluster=cluster3d`, 0.4 s with the graph); joining boxes only when
 ///   they touch (α = 0) splits heaps of separate small objects into hundreds of grids (balls,
 ///   room 1.5–2× slower at 512² in an earlier sweep); α from 0.1 to 1 performed alike.
-/// * `world`: 8 cells per item, `density`: 2 per item in clusters. The papers' 2N (EG95) and
+/// * `world`: 4 cells per item, `density`: 2 per item in clusters. The papers' 2N (EG95) and
 ///   2.83N (SCG97) and one cell per cluster item were chosen when a cell step cost more
 ///   relative to a triangle test; with the walk here (DDA state in registers, eight triangles
-///   tested at once) finer grids pay: `world=4` worst 1.23 (lattice), `world=16` 1.24 (gears),
-///   `density=1` 1.29 (city). With offsets kept for occupied cells only, the finer grids cost
-///   about 10 bytes per primitive more than the papers' settings.
+///   tested at once) finer grids pay: `world=16` 1.24 (gears), `density=1` 1.29 (city). The
+///   world grid had 8 cells an item until camera and shadow rays went through the grids 32
+///   at a time (issue 19), which cross a fine grid's slices one by one where single rays
+///   step cell by cell: since, `world=8` is up to 1.35 behind the best grid density on the
+///   meshes (nefertiti; the build is a third of a 512² render), `world=4` at most 1.14
+///   (nefertiti) and 1.12 (lattice), `world=2` 1.49 (lattice); incoherent rays trace alike at
+///   4 and 8 (bunny, nefertiti, city ±4%, kitchen 5% slower at 4). With offsets kept for
+///   occupied cells only, the finer grids cost a few bytes per primitive more than the
+///   papers' settings.
 /// * `prune`: large objects only (box over 16 cells or more); `prune=false` worst 1.27 (gears'
 ///   slivers), and testing every object costs build time for nothing on meshes.
 /// * `min_cluster` 16 and `loose` 0.25: `min_cluster=1` worst 1.39, `min_cluster=64` 1.43,
@@ -87,7 +93,7 @@ pub const DEFAULTS: HugSettings = HugSettings {
     cluster: ClusterRule::Graph,
     alpha: 0.5,
     crowd: Some(cluster::CROWD),
-    world: WorldCells::Density(8.0),
+    world: WorldCells::Density(4.0),
     density: 2.0,
     cells: CellShape::Cubical,
     giveback: true,
