@@ -259,7 +259,8 @@ struct BenchArgs {
     /// mode, e.g. `--packets on --packets off`): auto, groups of neighbouring rays (8 for the
     /// bvh, 32 for the grids) that look coherent walk together where the structure's packet
     /// walk pays (bvh, grid, hug, rgrid); on, every group, in every structure; off, every ray
-    /// alone. `reproduce` walks every ray alone, as the papers count.
+    /// alone. The counters are one ray's walk whatever the mode, as the papers count, and
+    /// `reproduce` walks every ray alone.
     #[arg(long = "packets", default_value = "auto", value_parser = clap::builder::PossibleValuesParser::new(Packets::NAMES).map(|s| s.parse::<Packets>().expect("a listed mode")))]
     packets: Vec<Packets>,
 }

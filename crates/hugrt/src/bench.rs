@@ -289,9 +289,13 @@ pub fn bench_scene(
                     std::hint::black_box(once(&settings));
                     secs.push(t.elapsed().as_secs_f64());
                 }
+                // The counters are one ray's walk, as the papers count (SCG97 §3) and as the
+                // camera and incoherent workloads count them, whatever the packets: a packet
+                // meets a cell once for its rays and may test more triangles. The image is the
+                // same either way.
                 let counted = RenderSettings {
                     counters: true,
-                    packets: cand.packets,
+                    packets: Packets::Off,
                     ..settings
                 };
                 let (out, recording) = render_recorded(scene, &accel, soft.as_ref(), &counted);

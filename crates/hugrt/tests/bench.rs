@@ -1,7 +1,7 @@
 //! `bench` on tiny scenes: one row per structure with consistent counters, the same answers
 //! from every correct structure, and a wrong structure caught by the same-answers check.
 
-use hugrt::accel::{AnyAccel, PI, PIT, PrimitiveKind, Primitives};
+use hugrt::accel::{AnyAccel, PI, PIT, PrimitiveKind, Primitives, VT};
 use hugrt::bench::{BenchRow, Candidate, Workload, bench_scene};
 use hugrt::geometry::{Aabb, PreparedRay, Ray};
 use hugrt::scene::{Scene, procedural::clustered_room};
@@ -164,4 +164,31 @@ fn a_structure_that_drops_a_primitive_is_caught() {
             );
         }
     }
+}
+
+/// The counters of a render are one ray's walk whatever the packets, as the papers count:
+/// a packet meets a cell once for its rays and may test more triangles, so counting the
+/// timed render's walk would make the septet depend on `--packets`.
+#[test]
+fn whitted_counters_do_not_depend_on_packets() {
+    use hugrt::accel::Packets;
+    let scene = clustered_room(2000, 7);
+    let with = |packets| Candidate {
+        packets,
+        ..Candidate::spec(&scene, "hug")
+    };
+    let candidates = [with(Packets::On), with(Packets::Off)];
+    let workload = Workload::Whitted {
+        width: Some(40),
+        height: Some(30),
+        depth: 2,
+        soft_shadows: None,
+    };
+    let rows = run(&scene, &candidates, workload);
+    assert_eq!(rows[1].differences, 0, "the same image");
+    assert_eq!(
+        format!("{:?}", rows[0].per_ray),
+        format!("{:?}", rows[1].per_ray)
+    );
+    assert!(rows[0].per_ray[VT] > 0.0, "{:?}", rows[0].per_ray);
 }
