@@ -129,7 +129,6 @@ macro_rules! packet_kernel {
                 _mm256_mul_ps(r[2], p[2]),
             )
         };
-        let zero = _mm256_setzero_ps();
         for $t in 0..LANES {
             let t = $t;
             let vertex = |k: usize| {
@@ -146,28 +145,7 @@ macro_rules! packet_kernel {
             let u = _mm256_sub_ps(_mm256_mul_ps(cx, by), _mm256_mul_ps(cy, bx));
             let v = _mm256_sub_ps(_mm256_mul_ps(ax, cy), _mm256_mul_ps(ay, cx));
             let w = _mm256_sub_ps(_mm256_mul_ps(bx, ay), _mm256_mul_ps(by, ax));
-            macro_rules! any {
-                ($pred:ident) => {
-                    _mm256_or_ps(
-                        _mm256_or_ps(
-                            _mm256_cmp_ps::<$pred>(u, zero),
-                            _mm256_cmp_ps::<$pred>(v, zero),
-                        ),
-                        _mm256_cmp_ps::<$pred>(w, zero),
-                    )
-                };
-            }
-            let redo = _mm256_movemask_ps(any!(_CMP_EQ_OQ)) as u32;
-            let mixed = _mm256_and_ps(any!(_CMP_LT_OQ), any!(_CMP_GT_OQ));
-            let det = _mm256_add_ps(_mm256_add_ps(u, v), w);
-            let det_abs = _mm256_andnot_ps(s(-0.0), det);
-            // Neither zero nor infinite nor NaN (a lane of no triangle).
-            let det_ok = _mm256_and_ps(
-                _mm256_cmp_ps::<_CMP_LT_OQ>(det_abs, s(f32::INFINITY)),
-                _mm256_cmp_ps::<_CMP_GT_OQ>(det_abs, zero),
-            );
-            let crossed = _mm256_movemask_ps(_mm256_andnot_ps(mixed, det_ok)) as u32 & !redo;
-            let ($crossed, $redo) = (crossed, redo);
+            let ($crossed, $redo) = $crate::accel::simd::edge_masks!(u, v, w);
             $emit
         }
     }};

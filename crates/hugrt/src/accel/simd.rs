@@ -15,6 +15,47 @@
 
 use crate::geometry::{PreparedRay, Vec3};
 
+/// From eight lanes' edge functions `u, v, w` (AVX registers, the scalar test's numbers):
+/// `(crossed, zero)`, the lanes whose triangle is crossed (no two signs differ, no edge
+/// function zero, `0 < |u + v + w| < inf`, false for NaN) and the lanes with an edge function
+/// exactly zero, which the scalar test decides. Shared by the kernels of eight triangles
+/// against one ray ([`triangles8`]) and one triangle against eight rays
+/// ([`crate::accel::block::packet_lanes_avx2`]), so that both classify a lane alike; a macro,
+/// so that each AVX2 function inlines the intrinsics.
+#[cfg(target_arch = "x86_64")]
+macro_rules! edge_masks {
+    ($u:expr, $v:expr, $w:expr) => {{
+        use std::arch::x86_64::*;
+        let (u, v, w) = ($u, $v, $w);
+        let zero = _mm256_setzero_ps();
+        macro_rules! any {
+            ($cmp:ident) => {
+                _mm256_or_ps(
+                    _mm256_or_ps(
+                        _mm256_cmp_ps::<$cmp>(u, zero),
+                        _mm256_cmp_ps::<$cmp>(v, zero),
+                    ),
+                    _mm256_cmp_ps::<$cmp>(w, zero),
+                )
+            };
+        }
+        let eq_zero = any!(_CMP_EQ_OQ);
+        let mixed = _mm256_and_ps(any!(_CMP_LT_OQ), any!(_CMP_GT_OQ));
+        let det_abs = _mm256_andnot_ps(_mm256_set1_ps(-0.0), _mm256_add_ps(_mm256_add_ps(u, v), w));
+        let det_ok = _mm256_and_ps(
+            _mm256_cmp_ps::<_CMP_LT_OQ>(det_abs, _mm256_set1_ps(f32::INFINITY)),
+            _mm256_cmp_ps::<_CMP_GT_OQ>(det_abs, zero),
+        );
+        let crossed = _mm256_andnot_ps(eq_zero, _mm256_andnot_ps(mixed, det_ok));
+        (
+            _mm256_movemask_ps(crossed) as u32,
+            _mm256_movemask_ps(eq_zero) as u32,
+        )
+    }};
+}
+#[cfg(target_arch = "x86_64")]
+pub(crate) use edge_masks;
+
 /// The lanes of one batch: which the ray crosses, and which need the scalar test.
 pub struct Lanes {
     /// Lanes whose triangle the ray crosses (signs of `u, v, w` agree, determinant finite and
@@ -140,31 +181,6 @@ pub unsafe fn triangles8(source: Source<'_>, idx: &[u32; 8], ray: &PreparedRay) 
     let u = _mm256_sub_ps(_mm256_mul_ps(cx, by), _mm256_mul_ps(cy, bx));
     let v = _mm256_sub_ps(_mm256_mul_ps(ax, cy), _mm256_mul_ps(ay, cx));
     let w = _mm256_sub_ps(_mm256_mul_ps(bx, ay), _mm256_mul_ps(by, ax));
-    let zero = _mm256_setzero_ps();
-    macro_rules! any {
-        ($cmp:ident) => {
-            _mm256_or_ps(
-                _mm256_or_ps(
-                    _mm256_cmp_ps::<$cmp>(u, zero),
-                    _mm256_cmp_ps::<$cmp>(v, zero),
-                ),
-                _mm256_cmp_ps::<$cmp>(w, zero),
-            )
-        };
-    }
-    let eq_zero = any!(_CMP_EQ_OQ);
-    let some_neg = any!(_CMP_LT_OQ);
-    let some_pos = any!(_CMP_GT_OQ);
-    let det = _mm256_add_ps(_mm256_add_ps(u, v), w);
-    let det_abs = _mm256_andnot_ps(s!(-0.0), det);
-    // The determinant is neither zero nor infinite: 0 < |det| < inf (false for NaN).
-    let det_ok = _mm256_and_ps(
-        _mm256_cmp_ps::<_CMP_LT_OQ>(det_abs, s!(f32::INFINITY)),
-        _mm256_cmp_ps::<_CMP_GT_OQ>(det_abs, zero),
-    );
-    let crossed = _mm256_andnot_ps(_mm256_and_ps(some_neg, some_pos), det_ok);
-    Lanes {
-        crossed: _mm256_movemask_ps(_mm256_andnot_ps(eq_zero, crossed)) as u32,
-        scalar: _mm256_movemask_ps(eq_zero) as u32,
-    }
+    let (crossed, scalar) = edge_masks!(u, v, w);
+    Lanes { crossed, scalar }
 }
