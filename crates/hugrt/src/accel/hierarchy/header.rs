@@ -5,6 +5,10 @@ use super::NO_FRAME;
 use crate::accel::Frame;
 use crate::geometry::{Aabb, Vec3};
 
+/// `1 + 2·gamma(3)` of Ize ("Robust BVH Ray Traversal", JCGT 2013): scaling the far slab
+/// distance by it makes the slab test conservative under rounding.
+const ROBUST_FAR: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
+
 #[derive(Clone, Copy, Debug)]
 pub(super) struct GridHeader {
     /// The grid's box, in its own frame.
@@ -25,6 +29,20 @@ pub(super) struct GridHeader {
 impl GridHeader {
     pub(super) fn cells(&self) -> usize {
         self.res.iter().map(|&r| r as usize).product()
+    }
+
+    /// The interval `[t0, t1]` of the ray `o + t·d` (`inv = 1/d`) in the grid's box, within
+    /// `[tmin, tmax]`: the slab test, its far end widened by [`ROBUST_FAR`]; empty when
+    /// `t0 > t1`. `min` and `max` return the non-NaN operand, so a 0·inf slab is ignored. The
+    /// single walk and the packet walk both enter a grid by it.
+    #[inline(always)]
+    pub(super) fn interval(&self, o: Vec3, inv: Vec3, tmin: f32, tmax: f32) -> (f32, f32) {
+        let ta = (self.min - o) * inv;
+        let tb = (self.max - o) * inv;
+        (
+            tmin.max(ta.min(tb).max_element()),
+            tmax.min(ta.max(tb).min_element() * ROBUST_FAR),
+        )
     }
 
     #[inline(always)]

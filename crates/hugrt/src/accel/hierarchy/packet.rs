@@ -44,9 +44,6 @@ use crate::geometry::{PreparedRay, Ray, Vec3, crossing_t, intersect_triangle};
 /// a segment end's rounding is a few).
 const WIDEN: f32 = 1.0 / (1 << 19) as f32;
 
-/// `1 + 2·gamma(3)`, as the single walk's (`walk::ROBUST_FAR`).
-const ROBUST_FAR: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
-
 /// Rays a grid packet holds: four groups of the kernel's [`PACKET`]. A camera's row of 32
 /// neighbouring pixels shares a slice's cells; a packet of 8 paid for its slices' bookkeeping
 /// no better than the single walk (measured in `docs/measurements.md`).
@@ -80,27 +77,28 @@ fn greater(a: f32, b: f32) -> f32 {
     if a > b { a } else { b }
 }
 
-/// The least of a row of lanes: eight columns first, lane-wise (a register at a time), then
-/// the eight; folded one lane after another, the chain of 32 comparisons was 10% of a walk.
-fn min_of(x: &Lanes) -> f32 {
+/// A row of lanes reduced by `pick` (the lesser or the greater): eight columns first,
+/// lane-wise (a register at a time), then the eight; folded one lane after another, the chain
+/// of 32 comparisons was 10% of a walk.
+#[inline(always)]
+fn reduce(x: &Lanes, pick: impl Fn(f32, f32) -> f32 + Copy) -> f32 {
     let mut m: [f32; PACKET] = std::array::from_fn(|i| x[i]);
     for group in x.chunks_exact(PACKET).skip(1) {
         for (m, &g) in m.iter_mut().zip(group) {
-            *m = lesser(*m, g);
+            *m = pick(*m, g);
         }
     }
-    m.iter().fold(f32::INFINITY, |a, &b| lesser(a, b))
+    m.into_iter().reduce(pick).expect("eight columns")
 }
 
-/// The greatest of a row of lanes, as [`min_of`].
+/// The least of a row of lanes.
+fn min_of(x: &Lanes) -> f32 {
+    reduce(x, lesser)
+}
+
+/// The greatest of a row of lanes.
 fn max_of(x: &Lanes) -> f32 {
-    let mut m: [f32; PACKET] = std::array::from_fn(|i| x[i]);
-    for group in x.chunks_exact(PACKET).skip(1) {
-        for (m, &g) in m.iter_mut().zip(group) {
-            *m = greater(*m, g);
-        }
-    }
-    m.iter().fold(f32::NEG_INFINITY, |a, &b| greater(a, b))
+    reduce(x, greater)
 }
 
 /// What a packet carries from grid to grid: its prepared rays and, per ray, its sink, its
@@ -134,11 +132,8 @@ impl GridHierarchy {
         let world = &self.grids[0];
         if world.frame == NO_FRAME {
             let enters = rays[..n].iter().zip(&sinks[..n]).any(|(r, s)| {
-                let inv = Vec3::ONE / r.dir;
-                let ta = (world.min - r.origin) * inv;
-                let tb = (world.max - r.origin) * inv;
-                r.tmin.max(ta.min(tb).max_element())
-                    <= s.tmax().min(ta.max(tb).min_element() * ROBUST_FAR)
+                let (t0, t1) = world.interval(r.origin, Vec3::ONE / r.dir, r.tmin, s.tmax());
+                t0 <= t1
             });
             if !enters {
                 return;
@@ -257,13 +252,12 @@ impl GridHierarchy {
                 continue;
             }
             counters.box_test(level);
-            let inv = Vec3::ONE / *d;
-            let ta = (h.min - *o) * inv;
-            let tb = (h.max - *o) * inv;
-            t0[l] = packet.rays[l].ray.tmin.max(ta.min(tb).max_element());
-            t1[l] = packet.sinks[l]
-                .tmax()
-                .min(ta.max(tb).min_element() * ROBUST_FAR);
+            (t0[l], t1[l]) = h.interval(
+                *o,
+                Vec3::ONE / *d,
+                packet.rays[l].ray.tmin,
+                packet.sinks[l].tmax(),
+            );
             rays |= ((t0[l] <= t1[l]) as u32) << l;
         }
         if rays == 0 {
@@ -294,6 +288,17 @@ impl GridHierarchy {
             // side): a NaN fails the first comparison and becomes 0, the two clamp the rest.
             // The saturating `as` cast was 6% of a packet walk's time.
             unsafe { c.to_int_unchecked::<i32>() }
+        };
+        // The cells of the union of rectangles `f` (rows `rects` makes), `[u_lo, v_lo, u_hi,
+        // v_hi]`: a cell is monotone in its coordinate, so the union's are the least and the
+        // greatest of the rays' cells. Only where some ray is in the rows' slices.
+        let union_cells = |f: &[Lanes; 4]| {
+            [
+                cell(min_of(&f[0]), min_u, inv_u, top_u) as u32,
+                cell(min_of(&f[1]), min_v, inv_v, top_v) as u32,
+                cell(max_of(&f[2]), min_u, inv_u, top_u) as u32,
+                cell(max_of(&f[3]), min_v, inv_v, top_v) as u32,
+            ]
         };
         // Each ray's interval ends at its nearest hit so far: `-inf` for rays not walking
         // this grid, whose segments are then empty.
@@ -395,11 +400,9 @@ impl GridHierarchy {
                 );
                 let (f, in_slab, past) = rects(plane_a, plane_b, &lo, &hi);
                 let empty = in_slab == 0 || {
+                    let [u_lo, v_lo, u_hi, v_hi] = union_cells(&f).map(|c| c / BLOCK);
                     let (mut b_lo, mut b_hi) = ([checked; 3], [checked; 3]);
-                    b_lo[u] = cell(min_of(&f[0]), min_u, inv_u, top_u) as u32 / BLOCK;
-                    b_lo[v] = cell(min_of(&f[1]), min_v, inv_v, top_v) as u32 / BLOCK;
-                    b_hi[u] = cell(max_of(&f[2]), min_u, inv_u, top_u) as u32 / BLOCK;
-                    b_hi[v] = cell(max_of(&f[3]), min_v, inv_v, top_v) as u32 / BLOCK;
+                    (b_lo[u], b_lo[v], b_hi[u], b_hi[v]) = (u_lo, v_lo, u_hi, v_hi);
                     !self.blocks.any(g as usize, b_lo, b_hi)
                 };
                 if empty {
@@ -419,12 +422,7 @@ impl GridHierarchy {
             let (f, in_slice, beyond) = rects(plane_lo, plane_hi, &lo, &hi);
             if in_slice != 0 {
                 let slice_first = h.first_cell as usize + slice as usize * stride[k];
-                // The cells of the union of the rectangles (a cell is monotone in its
-                // coordinate, so the union's are the least and greatest of the rays' cells).
-                let u_lo = cell(min_of(&f[0]), min_u, inv_u, top_u) as u32;
-                let v_lo = cell(min_of(&f[1]), min_v, inv_v, top_v) as u32;
-                let u_hi = cell(max_of(&f[2]), min_u, inv_u, top_u) as u32;
-                let v_hi = cell(max_of(&f[3]), min_v, inv_v, top_v) as u32;
+                let [u_lo, v_lo, u_hi, v_hi] = union_cells(&f);
                 let spread = (u_hi - u_lo + 1) as u64 * (v_hi - v_lo + 1) as u64;
                 if spread > SPREAD * (in_slice & packet.live).count_ones() as u64 {
                     self.walk_alone(g, prims, packet, rays & packet.live, counters);

@@ -7,10 +7,6 @@ use crate::accel::HitSink;
 use crate::accel::{Counters, Mailbox, Primitives};
 use crate::geometry::{PreparedRay, Vec3};
 
-/// `1 + 2·gamma(3)` of Ize ("Robust BVH Ray Traversal", JCGT 2013): scaling the far slab
-/// distance by it makes the slab test conservative under rounding.
-const ROBUST_FAR: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
-
 /// The 3D-DDA's state along one axis: the parameter of the next cell boundary ahead and how to
 /// cross it.
 #[derive(Clone, Copy)]
@@ -110,11 +106,7 @@ impl GridHierarchy {
             let d = f.dir(ray.ray.dir);
             (f.point(ray.ray.origin), d, Vec3::ONE / d)
         };
-        // Slab test; `min`/`max` return the non-NaN operand, so a 0·inf slab is ignored.
-        let ta = (h.min - o) * inv;
-        let tb = (h.max - o) * inv;
-        let t0 = tmin.max(ta.min(tb).max_element());
-        let t1 = sink.tmax().min(ta.max(tb).min_element() * ROBUST_FAR);
+        let (t0, t1) = h.interval(o, inv, tmin, sink.tmax());
         let entered = t0 <= t1;
         if !entered {
             return false;
