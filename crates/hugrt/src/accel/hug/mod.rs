@@ -67,10 +67,10 @@ use crate::geometry::Ray;
 ///   (stadium 28 s with `cluster=cluster3d`, 0.4 s with the graph); joining boxes only when
 ///   they touch (α = 0) splits heaps of separate small objects into hundreds of grids (balls,
 ///   room 1.5–2× slower at 512² in an earlier sweep); α from 0.1 to 1 performed alike.
-/// * `world`: 4 cells per item, `density`: 2 per item in clusters. The papers' 2N (EG95) and
-///   2.83N (SCG97) and one cell per cluster item were chosen when a cell step cost more
-///   relative to a triangle test; with the walk here (DDA state in registers, eight triangles
-///   tested at once) finer grids pay: `world=16` 1.24 (gears), `density=1` 1.29 (city). The
+/// * `world`: 4 cells per item, `density`: 2 per item in clusters. The papers' 2N (EG95
+///   §2.2.3) and 2.83N (SCG97 §1.3) and one cell per cluster item were chosen when a cell
+///   step cost more relative to a triangle test; with the walk here (DDA state in
+///   registers, eight triangles tested at once) finer grids pay: `world=16` 1.24 (gears), `density=1` 1.29 (city). The
 ///   world grid had 8 cells an item until camera and shadow rays went through the grids 32
 ///   at a time (issue 19), which cross a fine grid's slices one by one where single rays
 ///   step cell by cell: since, `world=8` is up to 1.35 behind the best grid density on the
