@@ -7,7 +7,10 @@
 //! clusters, and the build stays `O(n log n)`.
 
 use crate::accel::sort::radix_sort_high32;
+use rayon::prelude::*;
 use std::ops::Range;
+use std::sync::atomic::AtomicU32;
+use std::sync::atomic::Ordering::Relaxed;
 
 /// An object as clustering sees it: its box and an index the caller gives it.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -169,19 +172,39 @@ pub fn cluster3d(items: &mut [Item], delta: f32) -> Vec<Range<usize>> {
         .collect()
 }
 
-fn find(parent: &mut [u32], mut i: u32) -> u32 {
-    while parent[i as usize] != i {
-        let p = parent[parent[i as usize] as usize];
-        parent[i as usize] = p;
-        i = p;
+/// The root of `i`'s tree, halving the path on the way. Shared between threads: a link only
+/// ever points from an object to one of smaller index in its component (`union`), so every
+/// value a parent ever holds is an ancestor, and a stale read or a lost halving store leaves
+/// a valid forest.
+fn find(parent: &[AtomicU32], mut i: u32) -> u32 {
+    loop {
+        let p = parent[i as usize].load(Relaxed);
+        if p == i {
+            return i;
+        }
+        let g = parent[p as usize].load(Relaxed);
+        if g != p {
+            parent[i as usize].store(g, Relaxed);
+        }
+        i = g;
     }
-    i
 }
 
-fn union(parent: &mut [u32], a: u32, b: u32) {
-    let (ra, rb) = (find(parent, a), find(parent, b));
-    if ra != rb {
-        parent[ra.max(rb) as usize] = ra.min(rb);
+/// Joins the trees of `a` and `b`, the larger root linked below the smaller; a root another
+/// thread linked meanwhile fails the exchange, and the roots are found again.
+fn union(parent: &[AtomicU32], a: u32, b: u32) {
+    loop {
+        let (ra, rb) = (find(parent, a), find(parent, b));
+        if ra == rb {
+            return;
+        }
+        let (hi, lo) = (ra.max(rb), ra.min(rb));
+        if parent[hi as usize]
+            .compare_exchange(hi, lo, Relaxed, Relaxed)
+            .is_ok()
+        {
+            return;
+        }
     }
 }
 
@@ -194,13 +217,15 @@ pub const CROWD: usize = 64;
 const PAIRS_PER_OBJECT: u64 = 512;
 
 /// SCG97 §7.4: the clusters are the connected components of the graph joining objects whose
-/// (closed) boxes intersect, found with union-find. With `delta > 0` the edges join boxes less
-/// than `delta` apart along every axis instead, which is EG95 Def. 2's δ-connectivity measured
+/// (closed) boxes intersect, found with union-find. With `delta > 0` the edges join boxes at
+/// most `delta` apart along every axis instead, which is EG95 Def. 2's δ-connectivity measured
 /// on the boxes themselves rather than on their projections (the distance is the largest gap
 /// along an axis; EG95 does not say which distance). The paper sweeps a plane; here the
 /// candidate pairs come from a uniform grid of about `2n` cells over the level, each box binned
 /// into the cells it meets (the resolution halved while that makes more than `8n` references,
-/// so that a few long objects do not fill the grid): only boxes sharing a cell are compared.
+/// so that a few long objects do not fill the grid): only boxes sharing a cell are compared,
+/// each pair in one cell only. The cells are compared in parallel, into one union-find shared
+/// by the threads; the components do not depend on the order in which pairs join.
 ///
 /// With `crowd = Some(c)` (hugrt's default, 64), a cell holding more than `c` objects (a pile,
 /// or a dense patch of objects much smaller than the cells) joins them all without comparing
@@ -220,9 +245,10 @@ pub fn graph_components(
     if n == 0 {
         return Vec::new();
     }
+    let parent: Vec<AtomicU32> = (0..n as u32).map(AtomicU32::new).collect();
     // The grid is freed before the items are regrouped (the build's peak memory).
-    let mut parent = {
-        // Boxes grown by half of δ on every side meet exactly when they were less than δ apart.
+    {
+        // Boxes grown by half of δ on every side meet exactly when they were at most δ apart.
         let h = 0.5 * delta.max(0.0);
         // Grown where used rather than copied: a copy of every box was the largest part of
         // the build's peak.
@@ -232,18 +258,31 @@ pub fn graph_components(
             id: it.id,
         };
         let boxes = &*items;
-        let (lo, hi) = boxes.iter().fold(
-            ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]),
-            |(lo, hi), it| {
-                let it = grown(it);
-                (
-                    std::array::from_fn(|a| lo[a].min(it.lo[a])),
-                    std::array::from_fn(|a| hi[a].max(it.hi[a])),
-                )
-            },
-        );
+        let (lo, hi) = boxes
+            .par_iter()
+            .fold(
+                || ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]),
+                |(lo, hi), it| {
+                    let it = grown(it);
+                    (
+                        std::array::from_fn(|a| lo[a].min(it.lo[a])),
+                        std::array::from_fn(|a| hi[a].max(it.hi[a])),
+                    )
+                },
+            )
+            .reduce(
+                || ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]),
+                |(l0, h0), (l1, h1)| {
+                    (
+                        std::array::from_fn(|a| l0[a].min(l1[a])),
+                        std::array::from_fn(|a| h0[a].max(h1[a])),
+                    )
+                },
+            );
         let extent = glam::Vec3::from_array(std::array::from_fn(|a| hi[a] - lo[a]));
         let mut res = crate::accel::cubical_resolution(extent, 2.0 * n as f64);
+        // The cells of a grown box along each axis. Monotone in the coordinate, so the cell
+        // of the larger of two coordinates is the larger of their cells.
         let range = |res: [u32; 3], it: &Item| -> ([u32; 3], [u32; 3]) {
             let it = &grown(it);
             let c = |x: f32, a: usize| {
@@ -259,87 +298,147 @@ pub fn graph_components(
                 std::array::from_fn(|a| c(it.hi[a], a)),
             )
         };
-        let refs = |res: [u32; 3]| -> u64 {
-            boxes
-                .iter()
-                .map(|it| {
-                    let (l, h) = range(res, it);
-                    (0..3).map(|a| (h[a] - l[a] + 1) as u64).product::<u64>()
-                })
-                .sum()
+        let volume = |(l, h): ([u32; 3], [u32; 3])| -> u64 {
+            (0..3).map(|a| (h[a] - l[a] + 1) as u64).product()
         };
+        let refs =
+            |res: [u32; 3]| -> u64 { boxes.par_iter().map(|it| volume(range(res, it))).sum() };
         while refs(res) > 8 * n as u64 && res != [1, 1, 1] {
             res = res.map(|r| (r / 2).max(1));
         }
         let cells = res.iter().map(|&r| r as usize).product::<usize>();
-        let each = |f: &mut dyn FnMut(usize, u32)| {
-            for (i, it) in boxes.iter().enumerate() {
+        // The cells' objects in object order, as one thread would list them: `k` chunks of
+        // the objects each count their cells in a table of their own (a shared table's atomic
+        // increments were slower than one thread), then write at their own offsets.
+        let k = if n >= 1 << 14 {
+            rayon::current_num_threads().clamp(1, 4)
+        } else {
+            1
+        };
+        let chunk = |j: usize| &boxes[j * n / k..(j + 1) * n / k];
+        let each = |j: usize, f: &mut dyn FnMut(usize, u32)| {
+            let first = j * n / k;
+            for (i, it) in chunk(j).iter().enumerate() {
                 let (l, h) = range(res, it);
                 for z in l[2]..=h[2] {
                     for y in l[1]..=h[1] {
                         for x in l[0]..=h[0] {
-                            let c = ((z * res[1] + y) * res[0] + x) as usize;
-                            f(c, i as u32);
+                            f(((z * res[1] + y) * res[0] + x) as usize, (first + i) as u32);
                         }
                     }
                 }
             }
         };
+        let mut counts: Vec<Vec<u32>> = (0..k)
+            .into_par_iter()
+            .map(|j| {
+                let mut count = vec![0u32; cells];
+                each(j, &mut |c, _| count[c] += 1);
+                count
+            })
+            .collect();
+        // `start[c]`: where cell `c`'s objects begin; each chunk's count becomes its cursor.
         let mut start = vec![0u32; cells + 1];
-        each(&mut |c, _| start[c + 1] += 1);
         for c in 0..cells {
-            start[c + 1] += start[c];
+            let mut at = start[c];
+            for count in &mut counts {
+                (count[c], at) = (at, at + count[c]);
+            }
+            start[c + 1] = at;
         }
-        let mut members = vec![0u32; start[cells] as usize];
-        let mut cursor = start.clone();
-        each(&mut |c, i| {
-            members[cursor[c] as usize] = i;
-            cursor[c] += 1;
-        });
-        let mut parent: Vec<u32> = (0..n as u32).collect();
+        let members: Vec<AtomicU32> = (0..start[cells]).map(|_| AtomicU32::new(0)).collect();
+        counts
+            .into_par_iter()
+            .enumerate()
+            .for_each(|(j, mut cursor)| {
+                each(j, &mut |c, i| {
+                    members[cursor[c] as usize].store(i, Relaxed);
+                    cursor[c] += 1;
+                })
+            });
+        let size = |c: usize| (start[c + 1] - start[c]) as usize;
+        // Which crowded cells are joined untested, decided in cell order so that the budget
+        // of `crowd = None` is spent alike on every run.
+        let untested: Vec<bool> = match crowd {
+            Some(_) => Vec::new(),
+            None => {
+                let mut budget = PAIRS_PER_OBJECT * n as u64 + (1 << 20);
+                (0..cells)
+                    .map(|c| {
+                        let m = size(c) as u64;
+                        m as usize > CROWD
+                            && match budget.checked_sub(m * m.saturating_sub(1) / 2) {
+                                Some(left) => {
+                                    budget = left;
+                                    false
+                                }
+                                None => true,
+                            }
+                    })
+                    .collect()
+            }
+        };
+        let joined = |c: usize| match crowd {
+            Some(limit) => size(c) > limit,
+            None => untested[c],
+        };
+        *crowded += (0..cells).into_par_iter().filter(|&c| joined(c)).count();
         let touch = |a: &Item, b: &Item| (0..3).all(|k| a.lo[k] <= b.hi[k] && b.lo[k] <= a.hi[k]);
-        let mut budget = PAIRS_PER_OBJECT * n as u64 + (1 << 20);
-        for c in 0..cells {
-            let m = &members[start[c] as usize..start[c + 1] as usize];
-            let pairs = (m.len() as u64 * m.len().saturating_sub(1) as u64) / 2;
-            let join = match crowd {
-                Some(limit) => m.len() > limit,
-                None if m.len() > CROWD => match budget.checked_sub(pairs) {
-                    Some(left) => {
-                        budget = left;
-                        false
-                    }
-                    None => true,
-                },
-                None => false,
-            };
-            if join {
-                *crowded += 1;
-                for &j in &m[1..] {
-                    union(&mut parent, m[0], j);
+        (0..cells).into_par_iter().with_min_len(1024).for_each_init(
+            Vec::new,
+            |local: &mut Vec<(Item, [u32; 3])>, c| {
+                let m = &members[start[c] as usize..start[c + 1] as usize];
+                if m.len() < 2 {
+                    return;
                 }
-                continue;
-            }
-            for (k, &i) in m.iter().enumerate() {
-                for &j in &m[k + 1..] {
-                    if find(&mut parent, i) != find(&mut parent, j)
-                        && touch(&grown(&boxes[i as usize]), &grown(&boxes[j as usize]))
-                    {
-                        union(&mut parent, i, j);
+                let first = m[0].load(Relaxed);
+                if joined(c) {
+                    for j in &m[1..] {
+                        union(&parent, first, j.load(Relaxed));
+                    }
+                    return;
+                }
+                let r = [res[0] as usize, res[1] as usize];
+                let here = [c % r[0], c / r[0] % r[1], c / (r[0] * r[1])].map(|x| x as u32);
+                local.clear();
+                local.extend(m.iter().map(|j| {
+                    let it = &boxes[j.load(Relaxed) as usize];
+                    (
+                        Item {
+                            id: j.load(Relaxed),
+                            ..grown(it)
+                        },
+                        range(res, it).0,
+                    )
+                }));
+                // A pair is tested in one of the cells it shares: the one holding the low
+                // corner of the boxes' intersection, which lies in both boxes when they meet.
+                for (k, (a, ca)) in local.iter().enumerate() {
+                    for (b, cb) in &local[k + 1..] {
+                        if (0..3).all(|x| ca[x].max(cb[x]) == here[x]) && touch(a, b) {
+                            union(&parent, a.id, b.id);
+                        }
                     }
                 }
-            }
-        }
-        parent
-    };
-    let roots: Vec<u32> = (0..n as u32).map(|i| find(&mut parent, i)).collect();
-    let mut keyed: Vec<(u32, Item)> = roots.into_iter().zip(items.iter().copied()).collect();
-    keyed.sort_unstable_by_key(|&(r, _)| r);
+            },
+        );
+    }
+    // The clusters in the order of their least object (its root), objects in their order.
+    let mut keys: Vec<u64> = (0..n as u32)
+        .into_par_iter()
+        .map(|i| (find(&parent, i) as u64) << 32 | i as u64)
+        .collect();
+    drop(parent);
+    radix_sort_high32(&mut keys);
+    let copy = items.to_vec();
+    items
+        .par_iter_mut()
+        .zip(&keys)
+        .for_each(|(it, &k)| *it = copy[(k & 0xffff_ffff) as usize]);
     let mut out = Vec::new();
     let mut first = 0;
     for i in 0..n {
-        items[i] = keyed[i].1;
-        if i + 1 == n || keyed[i + 1].0 != keyed[i].0 {
+        if i + 1 == n || keys[i + 1] >> 32 != keys[i] >> 32 {
             out.push(first..i + 1);
             first = i + 1;
         }
@@ -435,6 +534,76 @@ mod tests {
         );
         let mut again = items.clone();
         assert_eq!(cluster3d(&mut again, 0.01).len(), 2);
+    }
+
+    /// The components of every pair of boxes at most `delta` apart (the largest gap along an
+    /// axis, each box grown by half of it as `graph_components` does), by testing all pairs.
+    fn brute_components(items: &[Item], delta: f32) -> Vec<Vec<u32>> {
+        let mut parent: Vec<usize> = (0..items.len()).collect();
+        fn root(p: &mut [usize], mut i: usize) -> usize {
+            while p[i] != i {
+                i = p[i];
+            }
+            i
+        }
+        for i in 0..items.len() {
+            for j in i + 1..items.len() {
+                let (a, b) = (&items[i], &items[j]);
+                let h = 0.5 * delta;
+                if (0..3).all(|k| a.lo[k] - h <= b.hi[k] + h && b.lo[k] - h <= a.hi[k] + h) {
+                    let (ri, rj) = (root(&mut parent, i), root(&mut parent, j));
+                    parent[ri.max(rj)] = ri.min(rj);
+                }
+            }
+        }
+        let mut groups = std::collections::BTreeMap::<usize, Vec<u32>>::new();
+        for i in 0..items.len() {
+            groups
+                .entry(root(&mut parent, i))
+                .or_default()
+                .push(items[i].id);
+        }
+        let mut v: Vec<Vec<u32>> = groups.into_values().collect();
+        v.sort();
+        v
+    }
+
+    #[test]
+    fn graph_components_are_the_brute_force_components() {
+        // Boxes of many sizes (points to a tenth of the scene), in clumps and alone, on a
+        // lattice so that faces touch exactly: every pair is tested in one shared cell only,
+        // whichever threads run the cells.
+        let mut seed = 0x9e37_79b9u32;
+        let mut next = |m: u32| {
+            seed ^= seed << 13;
+            seed ^= seed >> 17;
+            seed ^= seed << 5;
+            seed % m
+        };
+        for round in 0..6 {
+            let items: Vec<Item> = (0..1500u32)
+                .map(|i| {
+                    let clump = next(12) as f32 * 8.0;
+                    let lo = [0, 1, 2].map(|_| clump + next(64) as f32 * 0.25);
+                    let size = match next(10) {
+                        0 => next(40) as f32,
+                        1 => 0.0,
+                        _ => next(4) as f32 * 0.25,
+                    };
+                    let hi = [0, 1, 2].map(|a| lo[a] + size * (1 + (a as u32 + i) % 2) as f32);
+                    item(lo, hi, i)
+                })
+                .collect();
+            for delta in [0.0, 0.3, 2.0] {
+                let mut clustered = items.clone();
+                let c = graph_components(&mut clustered, delta, None, &mut 0);
+                assert_eq!(
+                    ids(&clustered, &c),
+                    brute_components(&items, delta),
+                    "round {round}, delta {delta}"
+                );
+            }
+        }
     }
 
     #[test]
