@@ -16,7 +16,10 @@ pub use aabb::Aabb;
 pub use cone::Cone;
 pub use polygon::{newell_normal, triangulate_polygon};
 pub use ray::{PreparedRay, Ray};
-pub use shape::{Shape, SurfacePoint, TINY_COORDINATE, TriangleBoxTest, tiny_coordinates_zeroed};
+pub use shape::{
+    Shape, SurfacePoint, TINY_COORDINATE, TriangleBoxTest, TriangleCellTest,
+    tiny_coordinates_zeroed,
+};
 pub use sphere::Sphere;
 pub use triangle::{barycentric, crossing_t, intersect_triangle};
 

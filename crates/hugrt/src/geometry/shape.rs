@@ -208,6 +208,102 @@ fn widened(b: &Aabb) -> Aabb {
     b.expand(1e-5 * (b.extent().max_element() + b.magnitude() * 1e-2))
 }
 
+impl TriangleBoxTest {
+    /// The test against the cells of a uniform grid: cell `c` spans `min + c·size` to
+    /// `min + (c + 1)·size`, widened by `margin`, and `magnitude` bounds the largest
+    /// coordinate of the grid's box so widened. The cells all have one size, so each axis's
+    /// interval is widened once by their radius, and along a row of cells the centres'
+    /// projections are linear in the cell's index: a row's cells that pass all thirteen axes
+    /// are one interval, found at once ([`TriangleCellTest::cells`]).
+    ///
+    /// It keeps every cell that [`TriangleBoxTest::overlaps`] keeps of the single-precision
+    /// cell boxes (`min + c·size` rounded, widened by `margin`): the epsilon is that of the
+    /// grid's magnitude, at least each cell's, plus four units in the last place of it, more
+    /// than the rounding of those boxes' corners and of their centre and extent, and far more
+    /// than the double-precision rounding of the rows' intervals.
+    pub fn on_cells(&self, min: Vec3, size: Vec3, margin: f32, magnitude: f32) -> TriangleCellTest {
+        let (size, margin, magnitude) = (size.as_dvec3(), margin as f64, magnitude as f64);
+        let epsilon = 1e-5 * (size.max_element() + 2.0 * margin + magnitude * 1e-2)
+            + 4.0 * f32::EPSILON as f64 * magnitude;
+        let half = size * 0.5 + DVec3::splat(margin + epsilon);
+        let first = min.as_dvec3() + size * 0.5;
+        let mut t = TriangleCellTest {
+            lo: [f64::NEG_INFINITY; 13],
+            hi: [f64::INFINITY; 13],
+            first: [0.0; 13],
+            step: [[0.0; 13]; 3],
+            inverse: [[0.0; 13]; 3],
+        };
+        for k in 0..13 {
+            let a = self.axes[k];
+            // A zero axis separates nothing: its interval is the whole line.
+            if a != DVec3::ZERO {
+                let r = half.dot(a.abs());
+                t.lo[k] = self.lo[k] - r;
+                t.hi[k] = self.hi[k] + r;
+                t.first[k] = first.dot(a);
+                for j in 0..3 {
+                    t.step[j][k] = size[j] * a[j];
+                    if t.step[j][k] != 0.0 {
+                        t.inverse[j][k] = 1.0 / t.step[j][k];
+                    }
+                }
+            }
+        }
+        t
+    }
+}
+
+/// [`TriangleBoxTest::on_cells`]: a triangle against the cells of one grid.
+pub struct TriangleCellTest {
+    lo: [f64; 13],
+    hi: [f64; 13],
+    /// The projection of cell (0, 0, 0)'s centre on each axis.
+    first: [f64; 13],
+    /// What one cell's step along each grid axis adds to it, and its inverse (0 for none).
+    step: [[f64; 13]; 3],
+    inverse: [[f64; 13]; 3],
+}
+
+impl TriangleCellTest {
+    /// Calls `f` with every cell from `lo` to `hi` (inclusive) that the triangle meets, row
+    /// by row along the axis of most cells: on each axis a row's centres project to
+    /// `base + x·step`, so the cells passing it are those with `x` in one interval, and the
+    /// row's cells are the intersection of the thirteen (the four kitchens' pruned binning
+    /// took 2.4 times as long with each cell's box tested alone, and 1.3 times with each
+    /// cell's projections stepped).
+    pub fn cells(&self, lo: [u32; 3], hi: [u32; 3], mut f: impl FnMut([u32; 3])) {
+        let a = (0..3).max_by_key(|&a| hi[a] - lo[a]).unwrap_or(0);
+        let (b, c) = ((a + 1) % 3, (a + 2) % 3);
+        for v in lo[c]..=hi[c] {
+            for u in lo[b]..=hi[b] {
+                let (mut from, mut to) = (lo[a] as f64, hi[a] as f64);
+                for k in 0..13 {
+                    let base =
+                        self.first[k] + u as f64 * self.step[b][k] + v as f64 * self.step[c][k];
+                    let inverse = self.inverse[a][k];
+                    if inverse == 0.0 {
+                        if base < self.lo[k] || base > self.hi[k] {
+                            to = f64::NEG_INFINITY;
+                        }
+                        continue;
+                    }
+                    let (x0, x1) = ((self.lo[k] - base) * inverse, (self.hi[k] - base) * inverse);
+                    from = from.max(x0.min(x1));
+                    to = to.min(x0.max(x1));
+                }
+                if from <= to {
+                    for x in from.ceil() as u32..=to.floor() as u32 {
+                        let mut cell = [0; 3];
+                        (cell[a], cell[b], cell[c]) = (x, u, v);
+                        f(cell);
+                    }
+                }
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -325,6 +421,45 @@ mod tests {
         assert!(n.x > 0.0 && n.z > 0.0);
         let bb = k.bounds();
         assert!((bb.min - Vec3::new(-1., -1., 0.)).length() < 1e-6);
+    }
+
+    proptest::proptest! {
+        /// A grid's prepared test keeps every cell the per-box test keeps, and only cells the
+        /// per-box test keeps once they are widened by a thousandth of a cell: on lattice
+        /// coordinates (faces and edges on cell planes) and far from the origin.
+        #[test]
+        fn the_cells_test_keeps_what_the_box_test_keeps(
+            v in proptest::array::uniform3(proptest::array::uniform3(-8i32..=8)),
+            jitter in -1.0f32..1.0,
+            offset in proptest::prop_oneof![proptest::strategy::Just(0.0f32), -1e6f32..1e6, -1e12f32..1e12],
+            size in proptest::array::uniform3(0.25f32..3.0),
+            margin in proptest::prop_oneof![proptest::strategy::Just(0.0f32), 1e-6f32..1e-2],
+        ) {
+            let v = v.map(|p| Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32 + jitter * 0.5) + Vec3::splat(offset));
+            let (min, size) = (Vec3::splat(offset - 9.0), Vec3::from_array(size));
+            let res = ((Vec3::splat(18.0) / size).ceil()).as_uvec3();
+            let max = min + size * res.as_vec3();
+            let magnitude = Aabb::new(min, max).expand(margin).magnitude();
+            let test = TriangleBoxTest::new(&v);
+            let mut kept = std::collections::HashSet::new();
+            test.on_cells(min, size, margin, magnitude).cells(
+                [0; 3],
+                (res - 1).to_array(),
+                |c| assert!(kept.insert(c), "cell {c:?} twice"),
+            );
+            for z in 0..res.z {
+                for y in 0..res.y {
+                    for x in 0..res.x {
+                        let lo = min + Vec3::new(x as f32, y as f32, z as f32) * size;
+                        let cell = Aabb::new(lo, lo + size).expand(margin);
+                        let kept = kept.contains(&[x, y, z]);
+                        proptest::prop_assert!(kept || !test.overlaps(&cell), "cell {x} {y} {z}");
+                        let loose = cell.expand(1e-3 * size.max_element() + 1e-6 * magnitude);
+                        proptest::prop_assert!(!kept || test.overlaps(&loose), "cell {x} {y} {z}");
+                    }
+                }
+            }
+        }
     }
 
     #[test]

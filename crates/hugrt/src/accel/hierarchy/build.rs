@@ -45,6 +45,7 @@ impl<P: Primitives> Binner<'_, P> {
                 + (c[2] as u64 * h.res[1] as u64 + c[1] as u64) * h.res[0] as u64
                 + c[0] as u64
         };
+        let magnitude = Aabb::new(h.min, h.max).expand(self.margin).magnitude();
         for (r, b) in range.filter_map(|k| it.get(k)) {
             let (lo, hi) = h.cell_range(&b);
             if index(hi) < keep.start || index(lo) >= keep.end {
@@ -58,23 +59,25 @@ impl<P: Primitives> Binner<'_, P> {
             let triangle = test
                 .then(|| self.store.triangle(r))
                 .flatten()
-                .map(|v| TriangleBoxTest::new(&v));
+                .map(|v| TriangleBoxTest::new(&v).on_cells(h.min, h.size, self.margin, magnitude));
             // A cell is kept when the object meets it widened by the margin, which is what
             // the exactness argument asks of the references (module documentation).
-            GridHierarchy::for_each_cell(h, &b, |cell, i| {
-                let global = h.first_cell as u64 + i as u64;
-                if keep.contains(&global)
-                    && (!test || {
-                        let cell = h.cell_box(cell).expand(self.margin);
-                        match &triangle {
-                            Some(t) => t.overlaps(&cell),
-                            None => self.prims.overlaps_box(self.store.id(r) as usize, &cell),
-                        }
-                    })
-                {
+            let mut keep_cell = |global: u64| {
+                if keep.contains(&global) {
                     out.push(global << 32 | r as u64);
                 }
-            });
+            };
+            match &triangle {
+                Some(t) => t.cells(lo, hi, |cell| keep_cell(index(cell))),
+                None => GridHierarchy::for_each_cell(h, &b, |cell, i| {
+                    if !test || {
+                        let cell = h.cell_box(cell).expand(self.margin);
+                        self.prims.overlaps_box(self.store.id(r) as usize, &cell)
+                    } {
+                        keep_cell(h.first_cell as u64 + i as u64);
+                    }
+                }),
+            }
         }
     }
 }
