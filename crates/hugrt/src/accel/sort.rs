@@ -174,6 +174,30 @@ pub(crate) fn sort_indices(v: &mut [u32]) {
     }
 }
 
+/// Sorts distinct indices below `bound` ascending: where they are at least a 32nd of the
+/// indices below `bound`, by setting a bit for each and reading the bits in order (the HUG's
+/// world grid on a scanned mesh holds nearly every object, 100,000 of them sorted in 0.8 ms
+/// by radix passes), else as [`sort_indices`] does.
+pub(crate) fn sort_distinct_indices(v: &mut [u32], bound: usize) {
+    if v.len() < 4096 || v.len() * 32 < bound || v.is_sorted() {
+        return sort_indices(v);
+    }
+    let mut bits = vec![0u64; bound.div_ceil(64)];
+    for &x in v.iter() {
+        bits[x as usize / 64] |= 1 << (x % 64);
+    }
+    let mut k = 0;
+    for (w, &word) in bits.iter().enumerate() {
+        let mut word = word;
+        while word != 0 {
+            v[k] = (w * 64) as u32 + word.trailing_zeros();
+            k += 1;
+            word &= word - 1;
+        }
+    }
+    assert_eq!(k, v.len(), "indices to sort are distinct");
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -182,6 +206,20 @@ mod tests {
         (0..n)
             .map(|i| (i.wrapping_mul(2654435761) % 100_000) << 32 | i)
             .collect()
+    }
+
+    #[test]
+    fn distinct_indices_sort_as_a_comparison_sort_does() {
+        for (n, bound) in [(0, 10), (5000, 5000), (5000, 9000), (5000, 1 << 20), (70_000, 100_001)] {
+            let mut v: Vec<u32> = (0..bound as u64)
+                .map(|i| (i.wrapping_mul(2654435761) % bound as u64) as u32)
+                .take(n)
+                .collect();
+            let mut want = v.clone();
+            want.sort_unstable();
+            sort_distinct_indices(&mut v, bound);
+            assert_eq!(v, want, "{n} of {bound}");
+        }
     }
 
     #[test]

@@ -5,7 +5,7 @@ use super::filter::Filter;
 use crate::accel::Frame;
 use crate::accel::PrimStore;
 use crate::accel::hierarchy::{GridPlan, MAX_CELLS, Resolution};
-use crate::accel::sort::sort_indices;
+use crate::accel::sort::sort_distinct_indices;
 use crate::accel::store::finite;
 use crate::geometry::{Aabb, Vec3};
 use glam::DMat3;
@@ -291,7 +291,7 @@ pub fn plan(store: &PrimStore, boxes: &[Aabb], s: &Recipe) -> (Vec<GridPlan>, Re
         .into_iter()
         .enumerate()
         .map(|(g, mut p)| {
-            sort_indices(&mut p.plan.objects);
+            sort_distinct_indices(&mut p.plan.objects, boxes.len());
             let items = (p.plan.objects.len() + p.plan.children.len()) as f64;
             let cells = items
                 * if g == 0 {
