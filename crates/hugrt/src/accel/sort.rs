@@ -210,7 +210,13 @@ mod tests {
 
     #[test]
     fn distinct_indices_sort_as_a_comparison_sort_does() {
-        for (n, bound) in [(0, 10), (5000, 5000), (5000, 9000), (5000, 1 << 20), (70_000, 100_001)] {
+        for (n, bound) in [
+            (0, 10),
+            (5000, 5000),
+            (5000, 9000),
+            (5000, 1 << 20),
+            (70_000, 100_001),
+        ] {
             let mut v: Vec<u32> = (0..bound as u64)
                 .map(|i| (i.wrapping_mul(2654435761) % bound as u64) as u32)
                 .take(n)

@@ -347,11 +347,16 @@ impl GridHierarchy {
         })
     }
 
-    /// Halves the resolution of `h` until box binning its items stays within the reference
-    /// budget ([`MAX_REFS_PER_ITEM`]), with its planes shifted when `shift`
+    /// Coarsens `h` until box binning its items stays within the reference budget
+    /// ([`MAX_REFS_PER_ITEM`]), with its planes shifted when `shift`
     /// ([`GridHeader::shift_planes`], applied here): the budget holds for the grid as binned,
     /// whose shift adds a cell along axes of 4 or more (64 cells of 100,000 overlapping
     /// objects, exactly the budget, became 125 and twice it once shifted).
+    ///
+    /// Each step keeps 79% of the cells along each axis, about half the cells: halving every
+    /// axis (an eighth of the cells a step) left the nested spheres of SPD shells, whose HUG
+    /// grids are at the budget, with 1,280 cells where this finds 2,619, and their 512² render
+    /// took 1.7 times as long (1,253 against 739 ms).
     pub(super) fn fit_budget<P: Primitives>(h: &mut GridHeader, it: &Items<P>, shift: bool) {
         let budget = (MAX_REFS_PER_ITEM * it.len() as u64)
             .max(MIN_REF_BUDGET)
@@ -372,7 +377,7 @@ impl GridHierarchy {
                 *h = binned;
                 return;
             }
-            h.set_resolution(h.res.map(|r| (r / 2).max(1)));
+            h.set_resolution(h.res.map(|r| ((r as f32 * 0.79) as u32).max(1)));
         }
     }
 
