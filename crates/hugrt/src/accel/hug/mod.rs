@@ -75,7 +75,9 @@ use crate::geometry::Ray;
 ///   at a time (issue 19), which cross a fine grid's slices one by one where single rays
 ///   step cell by cell: since, `world=8` is up to 1.35 behind the best grid density on the
 ///   meshes (nefertiti; the build is a third of a 512² render), `world=4` at most 1.14
-///   (nefertiti) and 1.12 (lattice), `world=2` 1.49 (lattice); incoherent rays trace alike at
+///   (nefertiti) and 1.12 (lattice), `world=2` 1.49 (lattice); a later sweep had `world=6`
+///   at 1.00 on lattice but 1.10–1.20 on the meshes, and 4 at 1.14 and 1.04–1.21 (the
+///   terrain's build, 524,288 triangles); incoherent rays trace alike at
 ///   4 and 8 (bunny, nefertiti, city ±4%, kitchen 5% slower at 4). With offsets kept for
 ///   occupied cells only, the finer grids cost a few bytes per primitive more than the
 ///   papers' settings.
