@@ -557,11 +557,8 @@ mod tests {
             }
         }
         let mut groups = std::collections::BTreeMap::<usize, Vec<u32>>::new();
-        for i in 0..items.len() {
-            groups
-                .entry(root(&mut parent, i))
-                .or_default()
-                .push(items[i].id);
+        for (i, it) in items.iter().enumerate() {
+            groups.entry(root(&mut parent, i)).or_default().push(it.id);
         }
         let mut v: Vec<Vec<u32>> = groups.into_values().collect();
         v.sort();
