@@ -269,9 +269,9 @@ impl TriangleCellTest {
     /// Calls `f` with every cell from `lo` to `hi` (inclusive) that the triangle meets, row
     /// by row along the axis of most cells: on each axis a row's centres project to
     /// `base + x·step`, so the cells passing it are those with `x` in one interval, and the
-    /// row's cells are the intersection of the thirteen (the four kitchens' pruned binning
-    /// took 2.4 times as long with each cell's box tested alone, and 1.3 times with each
-    /// cell's projections stepped).
+    /// row's cells are the intersection of the thirteen (the four kitchens' HUG built in
+    /// 37.5 ms with each cell's box tested alone, 33.5 with each cell's projections stepped,
+    /// 30.3 row by row).
     pub fn cells(&self, lo: [u32; 3], hi: [u32; 3], mut f: impl FnMut([u32; 3])) {
         let a = (0..3).max_by_key(|&a| hi[a] - lo[a]).unwrap_or(0);
         let (b, c) = ((a + 1) % 3, (a + 2) % 3);

@@ -346,6 +346,8 @@ pub fn graph_components(
             }
             start[c + 1] = at;
         }
+        // Atomic only so that the chunks write their own, interleaved places from safe code:
+        // a relaxed store is a plain store.
         let members: Vec<AtomicU32> = (0..start[cells]).map(|_| AtomicU32::new(0)).collect();
         counts
             .into_par_iter()

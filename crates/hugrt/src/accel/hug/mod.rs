@@ -54,10 +54,12 @@ use crate::geometry::Ray;
 /// The defaults of `hug` with no keys, chosen by measurement: every variant rendered (SPD
 /// procedure) over the 11 SPD scenes, the 5 yardstick meshes and the 7 generated scenes,
 /// against the uniform grid at densities 1 to 20 (`docs/measurements.md`, "The HUG's
-/// defaults", has the table and how to regenerate it). The defaults are never more than 8%
-/// behind the best grid density, which differs from scene to scene (2 to 20), and
-/// are 1.4 to 80 times faster where objects cluster. One key at a time, over all scenes
-/// (worst ratio to the best grid; geometric mean at 512²):
+/// defaults", has the table and how to regenerate it). The defaults were then never more
+/// than 8% behind the best grid density, which differs from scene to scene (2 to 20), and
+/// 1.4 to 80 times faster where objects cluster. Since packets (issue 19; "The HUG's build,
+/// and the sweep again"), four scenes fall further behind at 512²: lattice 1.14, nefertiti
+/// 1.12, the terrain 1.21 and the four kitchens 1.49, three of them by their build. One key
+/// at a time, over all scenes (worst ratio to the best grid; geometric mean at 512²):
 ///
 /// * `filter`: SCG97's two levels at 5% of the longest object. EG95's three equal-count
 ///   levels (`filter=levels`: worst 1.89, mean 1.17) cut a scene's detail across sizes, so
@@ -70,17 +72,17 @@ use crate::geometry::Ray;
 /// * `world`: 4 cells per item, `density`: 2 per item in clusters. The papers' 2N (EG95
 ///   §2.2.3) and 2.83N (SCG97 §1.3) and one cell per cluster item were chosen when a cell
 ///   step cost more relative to a triangle test; with the walk here (DDA state in
-///   registers, eight triangles tested at once) finer grids pay: `world=16` 1.24 (gears), `density=1` 1.29 (city). The
-///   world grid had 8 cells an item until camera and shadow rays went through the grids 32
-///   at a time (issue 19), which cross a fine grid's slices one by one where single rays
-///   step cell by cell: since, `world=8` is up to 1.35 behind the best grid density on the
-///   meshes (nefertiti; the build is a third of a 512² render), `world=4` at most 1.14
-///   (nefertiti) and 1.12 (lattice), `world=2` 1.49 (lattice); a later sweep had `world=6`
-///   at 1.00 on lattice but 1.10–1.20 on the meshes, and 4 at 1.14 and 1.04–1.21 (the
-///   terrain's build, 524,288 triangles); incoherent rays trace alike at
-///   4 and 8 (bunny, nefertiti, city ±4%, kitchen 5% slower at 4). With offsets kept for
-///   occupied cells only, the finer grids cost a few bytes per primitive more than the
-///   papers' settings.
+///   registers, eight triangles tested at once) finer grids pay: `world=16` 1.24 (gears),
+///   `density=1` 1.29 (city). The world grid had 8 cells an item until camera and shadow
+///   rays went through the grids 32 at a time (issue 19), which cross a fine grid's slices
+///   one by one where single rays step cell by cell: since, `world=8` is up to 1.35 behind
+///   the best grid density on the meshes (nefertiti; the build is a third of a 512²
+///   render), `world=4` at most 1.14 (nefertiti) and 1.12 (lattice), `world=2` 1.49
+///   (lattice); a later sweep had `world=6` at 1.00 on lattice but 1.10–1.20 on the meshes,
+///   and 4 at 1.14 and 1.04–1.21 (the terrain's build, 524,288 triangles); incoherent rays
+///   trace alike at 4 and 8 (bunny, nefertiti, city ±4%, kitchen 5% slower at 4). With
+///   offsets kept for occupied cells only, the finer grids cost a few bytes per primitive
+///   more than the papers' settings.
 /// * `prune`: large objects only (box over 16 cells or more); `prune=false` worst 1.27 (gears'
 ///   slivers), and testing every object costs build time for nothing on meshes.
 /// * `min_cluster` 16 and `loose` 0.25: `min_cluster=1` worst 1.39, `min_cluster=64` 1.43,
