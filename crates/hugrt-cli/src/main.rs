@@ -160,7 +160,9 @@ struct TraceArgs {
     /// and any hits): auto, where a group looks coherent (directions within 11° in one
     /// octant: a camera's rays, a light's) and the structure's packet walk pays (the bvh's,
     /// the grid's, the HUG's, the recursive grid's); on, every group, in every structure;
-    /// off, every ray alone. The hits are the same either way.
+    /// off, every ray alone. Where groups are walked, a camera's rays (found row by row in
+    /// the file) are grouped in tiles of 4 × 8 pixels and rays to a light by direction. The
+    /// hits are the same either way.
     #[arg(long, default_value = "auto", value_parser = clap::builder::PossibleValuesParser::new(Packets::NAMES).map(|s| s.parse::<Packets>().expect("a listed mode")))]
     packets: Packets,
 }

@@ -14,9 +14,7 @@
 //! flattened world (24 bytes; a miss is +inf and all ones). In the other formats an instanced
 //! world's hit is its flattened index, which must then be below 2^32 − 1.
 
-use crate::accel::{
-    AnyAccel, Hit, HitDetails, MAX_PACKET, NoCounters, Packets, Primitives, RayCounters,
-};
+use crate::accel::{AnyAccel, Hit, HitDetails, NoCounters, Packets, Primitives, RayCounters};
 use crate::geometry::{Ray, Vec3};
 use crate::world::{InstanceHit, World};
 use rayon::prelude::*;
@@ -312,9 +310,11 @@ pub fn trace_into<P: Primitives>(
     out: &mut [Option<Hit>],
 ) {
     assert_eq!(out.len(), rays.len(), "one answer per ray");
-    out.par_chunks_mut(MAX_PACKET)
-        .zip(rays.par_chunks(MAX_PACKET))
-        .with_min_len(32)
+    // Windows of whole bands of a camera's rows, so that each call can group them in tiles
+    // ([`crate::accel::order`]).
+    let window = crate::accel::order::window(rays);
+    out.par_chunks_mut(window)
+        .zip(rays.par_chunks(window))
         .for_each(|(o, r)| {
             if any_hit {
                 accel.any_hits(prims, r, packets, o, &mut NoCounters);

@@ -60,6 +60,48 @@ fn a_scene_large_enough_to_flatten_in_parallel() {
     check_all(&s, 13, 2_000);
 }
 
+/// A camera's rays row by row, and rays from points in the scene to a far light, each list
+/// as a batch: the batch queries walk the first in tiles and the second sorted by direction
+/// (`accel::order`), and every ray gets brute force's answer, and alone the same as in its
+/// packet.
+#[test]
+fn camera_and_light_rays_in_the_orders_packets_take() {
+    use hugrt::geometry::{Ray, Vec3};
+    let scenes = [
+        triangle_soup(21, 300),
+        clustered_soup(22, 400),
+        axis_aligned(23, 200),
+        mixed(24, 150),
+    ];
+    for (k, scene) in scenes.iter().enumerate() {
+        let b = scene.bounds();
+        let (c, size) = (b.center(), b.diagonal().max(1e-3));
+        let eye = c + Vec3::new(0.3, 0.4, -1.5) * size;
+        let forward = (c - eye).normalize();
+        let right = forward.cross(Vec3::Y).normalize();
+        let up = right.cross(forward);
+        // Odd sizes, so that tiles are cut at the right and the bottom.
+        let (w, h) = (37, 21);
+        let camera: Vec<Ray> = (0..w * h)
+            .map(|i| {
+                let (x, y) = ((i % w) as f32 / w as f32, (i / w) as f32 / h as f32);
+                let d = forward + right * (x - 0.5) * 0.8 + up * (0.5 - y) * 0.5;
+                Ray::new(eye, d, 0.0, f32::INFINITY)
+            })
+            .collect();
+        assert_all_agree(scene, &specs(), &camera);
+        let light = c + Vec3::new(7.0, 11.0, 9.0) * size;
+        let mut r = rng(k as u64);
+        let shadow: Vec<Ray> = (0..700)
+            .map(|_| {
+                let o = b.min + b.extent() * v3(&mut r, 0.0, 1.0);
+                Ray::new(o, light - o, 1e-4, 1.0)
+            })
+            .collect();
+        assert_all_agree(scene, &specs(), &shadow);
+    }
+}
+
 #[test]
 fn degenerate_rays_give_no_hit_and_no_hang() {
     use hugrt::accel::{AnyAccel, NoCounters};

@@ -106,6 +106,7 @@ impl Accel for Grid {
     const NAME: &'static str = "grid";
     const PACKET_RAYS: usize = crate::accel::hierarchy::GRID_PACKET;
     const PACKETS_PAY: bool = true;
+    const ORDER_PAYS: bool = true;
     type Settings = GridSettings;
 
     fn build_checked<P: Primitives>(prims: &P, settings: &GridSettings) -> Result<Self, SpecError> {

@@ -24,6 +24,7 @@ mod kdtree;
 mod mailbox;
 mod margin;
 mod octree;
+pub(crate) mod order;
 pub mod packet;
 mod query;
 mod reach;
@@ -274,6 +275,11 @@ pub trait Accel: Sized + Send + Sync {
     /// Rays a packet of this structure holds (at most [`MAX_PACKET`]): the groups of
     /// neighbouring rays that [`Accel::closest_hits`] and [`Accel::any_hits`] walk together.
     const PACKET_RAYS: usize = PACKET;
+    /// Whether grouping a batch's rays by [`order`] before walking packets (a camera's in
+    /// tiles, a light's by direction) repays the grouping, as measured (`docs/measurements.md`,
+    /// "Packets"): a grid's packet of 32 rays shares each slice's cells among a tile's rays,
+    /// where the bvh's packets of 8 gained less than the grouping cost.
+    const ORDER_PAYS: bool = false;
 
     /// Builds the structure with typed settings, e.g. `Bvh::with_settings(&scene,
     /// &BvhSettings { leaf: 4, ..Default::default() })`: an error names a value out of its
@@ -404,8 +410,9 @@ pub trait Accel: Sized + Send + Sync {
 
     /// The closest hit of each ray: `out[i]` is [`Accel::closest_hit`] of `rays[i]`, bit for
     /// bit. Groups of [`PACKET`] neighbouring rays are walked together as `packets` says
-    /// ([`Packets`]): give the rays in an order where neighbours are coherent (a camera's
-    /// pixels row by row, shadow rays of neighbouring points).
+    /// ([`Packets`]), neighbours in an order found from the rays where they allow one (a
+    /// camera's rays in tiles, rays to a light by direction: [`order`]), else in the given
+    /// order.
     ///
     /// # Panics
     /// When `out` and `rays` differ in length.
@@ -537,7 +544,8 @@ fn far_first_hit<A: Accel, P: Primitives, C: Counters, S: HitSink>(
 }
 
 /// [`Accel::closest_hits`] (`Closest::new`, `Closest::hit`) or [`Accel::any_hits`] (the same
-/// of `AnyHit`): each group of [`PACKET`] rays that `packets` walks together goes to
+/// of `AnyHit`): the rays in groups of [`Accel::PACKET_RAYS`], in the order [`order`] finds
+/// where packets may be walked and [`Accel::ORDER_PAYS`]; each group that `packets` walks together goes to
 /// [`Accel::query_packet`], all but the rays that are not traceable or not near, which are
 /// answered one at a time as [`Accel::closest_hit`] and [`Accel::any_hit`] answer them.
 #[allow(clippy::too_many_arguments)]
@@ -553,6 +561,59 @@ fn first_hits<A: Accel, P: Primitives, C: Counters, S: HitSink>(
     hit: fn(&S) -> Option<Hit>,
 ) {
     assert_eq!(out.len(), rays.len(), "one answer per ray");
+    const { assert!(A::PACKET_RAYS <= MAX_PACKET && A::PACKET_RAYS > 0) };
+    let regroup = A::ORDER_PAYS
+        && match packets {
+            Packets::Auto => A::PACKETS_PAY,
+            Packets::On => true,
+            Packets::Off => false,
+        };
+    let walk = |group: &[Ray], answers: &mut [Option<Hit>], counters: &mut C| {
+        first_hits_of_group(accel, prims, group, packets, answers, counters, sink, hit)
+    };
+    match regroup
+        .then(|| order::packet_order(rays, A::PACKET_RAYS))
+        .flatten()
+    {
+        None => {
+            for (group, answers) in rays
+                .chunks(A::PACKET_RAYS)
+                .zip(out.chunks_mut(A::PACKET_RAYS))
+            {
+                walk(group, answers, counters);
+            }
+        }
+        Some(order) => {
+            let mut group = [rays[0]; MAX_PACKET];
+            let mut answers = [None; MAX_PACKET];
+            for at in order.chunks(A::PACKET_RAYS) {
+                for (g, &i) in group.iter_mut().zip(at) {
+                    *g = rays[i as usize];
+                }
+                walk(&group[..at.len()], &mut answers[..at.len()], counters);
+                for (a, &i) in answers.iter().zip(at) {
+                    out[i as usize] = *a;
+                }
+            }
+        }
+    }
+}
+
+/// [`first_hits`] of one group of at most [`Accel::PACKET_RAYS`] rays, `answers[i]` that of
+/// `group[i]`: inlined into both of its callers there (as a closure called twice, it was not,
+/// and the bvh's camera rays were 1.2× slower).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn first_hits_of_group<A: Accel, P: Primitives, C: Counters, S: HitSink>(
+    accel: &A,
+    prims: &P,
+    group: &[Ray],
+    packets: Packets,
+    answers: &mut [Option<Hit>],
+    counters: &mut C,
+    sink: fn(f32) -> S,
+    hit: fn(&S) -> Option<Hit>,
+) {
     let alone = |ray: &Ray, counters: &mut C| {
         if !ray.is_traceable() {
             return None;
@@ -565,37 +626,31 @@ fn first_hits<A: Accel, P: Primitives, C: Counters, S: HitSink>(
         accel.query(prims, ray, &mut s, counters);
         hit(&s)
     };
-    const { assert!(A::PACKET_RAYS <= MAX_PACKET && A::PACKET_RAYS > 0) };
-    for (group, answers) in rays
-        .chunks(A::PACKET_RAYS)
-        .zip(out.chunks_mut(A::PACKET_RAYS))
-    {
-        if !packets.walk_together(group, A::PACKETS_PAY) {
-            for (ray, answer) in group.iter().zip(answers) {
-                *answer = alone(ray, counters);
+    if !packets.walk_together(group, A::PACKETS_PAY) {
+        for (ray, answer) in group.iter().zip(answers) {
+            *answer = alone(ray, counters);
+        }
+        return;
+    }
+    let mut walked = [group[0]; MAX_PACKET];
+    let mut lane_of = [0usize; MAX_PACKET];
+    let mut n = 0;
+    for (k, ray) in group.iter().enumerate() {
+        if ray.is_traceable() {
+            let r = ray.without_subnormal_direction();
+            if accel.reach().is_near(&r) {
+                walked[n] = r;
+                lane_of[n] = k;
+                n += 1;
+                continue;
             }
-            continue;
         }
-        let mut walked = [group[0]; MAX_PACKET];
-        let mut lane_of = [0usize; MAX_PACKET];
-        let mut n = 0;
-        for (k, ray) in group.iter().enumerate() {
-            if ray.is_traceable() {
-                let r = ray.without_subnormal_direction();
-                if accel.reach().is_near(&r) {
-                    walked[n] = r;
-                    lane_of[n] = k;
-                    n += 1;
-                    continue;
-                }
-            }
-            answers[k] = alone(ray, counters);
-        }
-        let mut sinks: [S; MAX_PACKET] = std::array::from_fn(|l| sink(walked[l].tmax));
-        accel.query_packet(prims, &walked[..n], &mut sinks[..n], counters);
-        for l in 0..n {
-            answers[lane_of[l]] = hit(&sinks[l]);
-        }
+        answers[k] = alone(ray, counters);
+    }
+    let mut sinks: [S; MAX_PACKET] = std::array::from_fn(|l| sink(walked[l].tmax));
+    accel.query_packet(prims, &walked[..n], &mut sinks[..n], counters);
+    for l in 0..n {
+        answers[lane_of[l]] = hit(&sinks[l]);
     }
 }
 

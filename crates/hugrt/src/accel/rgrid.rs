@@ -202,6 +202,7 @@ impl Accel for RecursiveGrid {
     const NAME: &'static str = "rgrid";
     const PACKET_RAYS: usize = crate::accel::hierarchy::GRID_PACKET;
     const PACKETS_PAY: bool = true;
+    const ORDER_PAYS: bool = true;
     type Settings = RecursiveGridSettings;
 
     fn build_checked<P: Primitives>(

@@ -24,6 +24,7 @@ pub use job::{DEFAULT_SCENE, MAX_SIDE, RenderJob, check_image};
 pub use output::{ImageFormat, save_image};
 pub use soft::{DEFAULT_LIGHT_RADIUS, SoftShadows};
 
+use crate::accel::order::TILE_ROWS;
 use crate::accel::{AnyAccel, Counters, Hit, NoCounters, Packets, RayCounters};
 use crate::geometry::{Aabb, PreparedRay, Ray, SurfacePoint, Vec3};
 use crate::scene::{Material, Scene};
@@ -565,9 +566,9 @@ struct Tracer<'a, S, C, Q> {
     counters: C,
 }
 
-/// The rendering itself, of the pixel rows `pixel_rows`; `queries(j)` makes the query source
-/// of corner row `j` (counted from the image's top), and the sources come back with the image,
-/// row by row.
+/// The rendering itself, of the pixel rows `pixel_rows`, by bands of [`TILE_ROWS`] corner rows
+/// from the first; `queries(b)` makes the query source of band `b` (counted from the first),
+/// and the sources come back with the image, band by band.
 fn render_with<C: Summable, S: Stage, Q: Queries<S>>(
     stage: &S,
     s: &RenderSettings,
@@ -588,32 +589,44 @@ fn render_with<C: Summable, S: Stage, Q: Queries<S>>(
     } else {
         1e-5 * b.diagonal().max(1e-6)
     };
-    let rows: Vec<(Vec<Vec3>, RayCounts, C, Q)> = (pixel_rows.start..=pixel_rows.end)
+    let (first, last) = (pixel_rows.start, pixel_rows.end);
+    let bands: Vec<(Vec<Vec3>, RayCounts, C, Q)> = (first..=last)
+        .step_by(TILE_ROWS)
+        .enumerate()
+        .collect::<Vec<_>>()
         .into_par_iter()
-        .map(|j| {
+        .map(|(b, j0)| {
             let mut t = Tracer {
                 stage,
-                queries: queries(j as usize),
+                queries: queries(b),
                 max_depth: s.depth.min(MAX_BOUNCES) + 1,
                 offset_scale,
                 counts: RayCounts::default(),
                 counters: C::default(),
             };
-            let v = (1.0 - 2.0 * j as f32 / h as f32) * half;
-            let eye: Vec<Ray> = (0..=w)
-                .map(|i| {
-                    let u = (2.0 * i as f32 / w as f32 - 1.0) * half * aspect;
-                    Ray::new(cam.from, dir + right * u + up * v, 0.0, f32::INFINITY)
+            let j1 = (j0 + TILE_ROWS as u32 - 1).min(last);
+            let eye: Vec<Ray> = (j0..=j1)
+                .flat_map(|j| {
+                    let v = (1.0 - 2.0 * j as f32 / h as f32) * half;
+                    (0..=w).map(move |i| {
+                        let u = (2.0 * i as f32 / w as f32 - 1.0) * half * aspect;
+                        Ray::new(cam.from, dir + right * u + up * v, 0.0, f32::INFINITY)
+                    })
                 })
                 .collect();
-            let row = t.trace_row(&eye);
-            progress(1);
-            (row, t.counts, t.counters, t.queries)
+            let band = t.trace_eye(&eye);
+            progress(u64::from(j1 - j0 + 1));
+            (band, t.counts, t.counters, t.queries)
         })
+        .collect();
+    let corners = w as usize + 1;
+    let rows: Vec<&[Vec3]> = bands
+        .iter()
+        .flat_map(|b| b.0.chunks_exact(corners))
         .collect();
     let mut counts = RayCounts::default();
     let mut counters = C::default();
-    for (_, c, k, _) in &rows {
+    for (_, c, k, _) in &bands {
         counts.add(c);
         counters.sum(k);
     }
@@ -621,7 +634,7 @@ fn render_with<C: Summable, S: Stage, Q: Queries<S>>(
     let radiance: Vec<Vec3> = (0..w * h)
         .map(|k| {
             let (x, y) = (k % w, k / w);
-            (rows[y].0[x] + rows[y].0[x + 1] + rows[y + 1].0[x] + rows[y + 1].0[x + 1]) * 0.25
+            (rows[y][x] + rows[y][x + 1] + rows[y + 1][x] + rows[y + 1][x + 1]) * 0.25
         })
         .collect();
     let image = image::RgbImage::from_fn(w as u32, h as u32, |x, y| {
@@ -635,7 +648,7 @@ fn render_with<C: Summable, S: Stage, Q: Queries<S>>(
         counts,
         counters: counters.into_option(),
     };
-    (rendered, rows.into_iter().map(|r| r.3).collect())
+    (rendered, bands.into_iter().map(|b| b.3).collect())
 }
 
 /// What shading needs of a hit: its material, normals turned to face the ray, and the
@@ -653,11 +666,12 @@ struct Surface {
 }
 
 impl<S: Stage, C: Counters, Q: Queries<S>> Tracer<'_, S, C, Q> {
-    /// The colours of a row's eye rays. The structure is asked for their hits all at once,
-    /// then for their shadow rays all at once, light by light, so that neighbouring rays can
-    /// be walked together ([`RenderSettings::packets`]); the rest of each ray tree is traced
-    /// ray by ray. The same colours as [`Tracer::trace`] of each ray.
-    fn trace_row(&mut self, eye: &[Ray]) -> Vec<Vec3> {
+    /// The colours of eye rays (a band of [`TILE_ROWS`] rows, which the structure walks in
+    /// tiles: [`crate::accel::Accel::closest_hits`]). The structure is asked for their hits
+    /// all at once, then for their shadow rays all at once, light by light, so that
+    /// neighbouring rays can be walked together ([`RenderSettings::packets`]); the rest of
+    /// each ray tree is traced ray by ray. The same colours as [`Tracer::trace`] of each ray.
+    fn trace_eye(&mut self, eye: &[Ray]) -> Vec<Vec3> {
         self.counts.eye_rays += eye.len() as u64;
         let mut hits = vec![None; eye.len()];
         self.queries

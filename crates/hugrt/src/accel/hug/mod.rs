@@ -407,6 +407,7 @@ impl Accel for Hug {
     const NAME: &'static str = "hug";
     const PACKET_RAYS: usize = crate::accel::hierarchy::GRID_PACKET;
     const PACKETS_PAY: bool = true;
+    const ORDER_PAYS: bool = true;
     type Settings = HugSettings;
 
     fn build_checked<P: Primitives>(prims: &P, settings: &HugSettings) -> Result<Self, SpecError> {
