@@ -185,22 +185,18 @@ fn by_direction(rays: &[Ray], group: usize) -> Option<Vec<u32>> {
     let (u, v) = ((major + 1) % 3, (major + 2) % 3);
     // A slope that is not finite (a direction across the major axis) is NaN, which the
     // extent ignores and the cell's cast makes 0.
-    let slopes: Vec<[f32; 2]> = rays
-        .iter()
-        .map(|r| {
-            let across = 1.0 / r.dir[major];
-            [r.dir[u] * across, r.dir[v] * across].map(|x| if x.is_finite() { x } else { f32::NAN })
-        })
-        .collect();
-    let (lo, hi) = slopes.iter().fold(
-        ([f32::INFINITY; 2], [f32::NEG_INFINITY; 2]),
-        |(lo, hi), s| {
-            (
-                [lo[0].min(s[0]), lo[1].min(s[1])],
-                [hi[0].max(s[0]), hi[1].max(s[1])],
-            )
-        },
-    );
+    let mut slopes = Vec::with_capacity(rays.len());
+    let (mut lo, mut hi) = ([f32::INFINITY; 2], [f32::NEG_INFINITY; 2]);
+    for r in rays {
+        let d = r.dir.to_array();
+        let across = 1.0 / d[major];
+        let s = [d[u] * across, d[v] * across].map(|x| if x.is_finite() { x } else { f32::NAN });
+        for k in 0..2 {
+            lo[k] = lo[k].min(s[k]);
+            hi[k] = hi[k].max(s[k]);
+        }
+        slopes.push(s);
+    }
     let extent = (hi[0] - lo[0]).max(hi[1] - lo[1]);
     if !(extent > 0.0 && extent.is_finite()) {
         return None;
