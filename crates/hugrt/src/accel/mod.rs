@@ -545,9 +545,10 @@ fn far_first_hit<A: Accel, P: Primitives, C: Counters, S: HitSink>(
 
 /// [`Accel::closest_hits`] (`Closest::new`, `Closest::hit`) or [`Accel::any_hits`] (the same
 /// of `AnyHit`): the rays in groups of [`Accel::PACKET_RAYS`], in the order [`order`] finds
-/// where packets may be walked and [`Accel::ORDER_PAYS`]; each group that `packets` walks together goes to
-/// [`Accel::query_packet`], all but the rays that are not traceable or not near, which are
-/// answered one at a time as [`Accel::closest_hit`] and [`Accel::any_hit`] answer them.
+/// where packets may be walked and [`Accel::ORDER_PAYS`]; each group that `packets` walks
+/// together goes to [`Accel::query_packet`], all but the rays that are not traceable or not
+/// near, which are answered one at a time as [`Accel::closest_hit`] and [`Accel::any_hit`]
+/// answer them.
 #[allow(clippy::too_many_arguments)]
 #[inline]
 fn first_hits<A: Accel, P: Primitives, C: Counters, S: HitSink>(
