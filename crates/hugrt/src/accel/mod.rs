@@ -275,7 +275,7 @@ pub trait Accel: Sized + Send + Sync {
     /// Rays a packet of this structure holds (at most [`MAX_PACKET`]): the groups of
     /// neighbouring rays that [`Accel::closest_hits`] and [`Accel::any_hits`] walk together.
     const PACKET_RAYS: usize = PACKET;
-    /// Whether grouping a batch's rays by [`order`] before walking packets (a camera's in
+    /// Whether grouping a batch's rays by `accel::order` before walking packets (a camera's in
     /// tiles, a light's by direction) repays the grouping, as measured (`docs/measurements.md`,
     /// "Packets"): a grid's packet of 32 rays shares each slice's cells among a tile's rays,
     /// where the bvh's packets of 8 gained less than the grouping cost.
@@ -411,7 +411,7 @@ pub trait Accel: Sized + Send + Sync {
     /// The closest hit of each ray: `out[i]` is [`Accel::closest_hit`] of `rays[i]`, bit for
     /// bit. Groups of [`PACKET`] neighbouring rays are walked together as `packets` says
     /// ([`Packets`]), neighbours in an order found from the rays where they allow one (a
-    /// camera's rays in tiles, rays to a light by direction: [`order`]), else in the given
+    /// camera's rays in tiles, rays to a light by direction: `accel::order`), else in the given
     /// order.
     ///
     /// # Panics

@@ -13,7 +13,7 @@
 //! [`PACKET`] neighbours that look coherent ([`coherent`]), so that a camera's rays or a
 //! light's, written by any tool, qualify, through the structures whose packet walk measures
 //! faster than one ray at a time ([`super::Accel::PACKETS_PAY`]); `on` walks every group as a
-//! packet; `off` walks every ray alone. Neighbours are found by [`super::order`] (a camera's
+//! packet; `off` walks every ray alone. Neighbours are found by `accel::order` (a camera's
 //! rays in tiles, rays to a light by direction) where the rays allow, else taken in the
 //! caller's order.
 
