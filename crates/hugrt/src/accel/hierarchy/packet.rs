@@ -2,11 +2,11 @@
 //! traversal of Wald, Ize, Kensler, Knoll and Parker ("Ray tracing animated scenes using
 //! coherent grid traversal", SIGGRAPH 2006), on every grid of the hierarchy.
 //!
-//! A packet of up to [`GRID_PACKET`] rays (32: a camera's row of neighbouring pixels)
-//! crosses a grid slice by slice along the major axis of its first ray. In each slice every
-//! ray's segment is bounded by the slice's two planes and by the ray's own interval in the
-//! grid, `[t0, nearest hit so far]`; the segment's two ends give the rectangle of cells it can
-//! cross in that slice. The packet looks up the cells of the union of the rectangles (the
+//! A packet of up to [`GRID_PACKET`] rays (32: a camera's tile of 4 × 8 pixels, as the batch
+//! queries group them, `accel::order`) crosses a grid slice by slice along the major axis of
+//! its first ray. In each slice every ray's segment is bounded by the slice's two planes and by
+//! the ray's own interval in the grid, `[t0, nearest hit so far]`; the segment's two ends give
+//! the rectangle of cells it can cross in that slice. The packet looks up the cells of the union of the rectangles (the
 //! occupancy bits only, for most); at the slice's first occupied cell each ray's own
 //! rectangle is found, and each occupied cell is tested for the rays whose rectangle holds
 //! it: the cell is fetched once for all of them, and its triangles are met four at a time by
@@ -44,7 +44,7 @@ use crate::geometry::{PreparedRay, Ray, Vec3, crossing_t, intersect_triangle};
 /// a segment end's rounding is a few).
 const WIDEN: f32 = 1.0 / (1 << 19) as f32;
 
-/// Rays a grid packet holds: four groups of the kernel's [`PACKET`]. A camera's row of 32
+/// Rays a grid packet holds: four groups of the kernel's [`PACKET`]. A camera's tile of 32
 /// neighbouring pixels shares a slice's cells; a packet of 8 paid for its slices' bookkeeping
 /// no better than the single walk (measured in `docs/measurements.md`).
 pub(crate) const GRID_PACKET: usize = MAX_PACKET;
