@@ -534,8 +534,8 @@ fn far_first_hit<A: Accel, P: Primitives, C: Counters, S: HitSink>(
     prims: &P,
     ray: &Ray,
     counters: &mut C,
-    sink: fn(f32) -> S,
-    hit: fn(&S) -> Option<Hit>,
+    sink: impl Fn(f32) -> S + Copy,
+    hit: impl Fn(&S) -> Option<Hit> + Copy,
 ) -> Option<Hit> {
     let m = accel.reach().moved(ray)?;
     let mut sink = sink(m.ray.tmax);
@@ -548,7 +548,9 @@ fn far_first_hit<A: Accel, P: Primitives, C: Counters, S: HitSink>(
 /// where packets may be walked and [`Accel::ORDER_PAYS`]; each group that `packets` walks
 /// together goes to [`Accel::query_packet`], all but the rays that are not traceable or not
 /// near, which are answered one at a time as [`Accel::closest_hit`] and [`Accel::any_hit`]
-/// answer them.
+/// answer them. `sink` and `hit` are generic rather than function pointers: through a pointer
+/// `hit` was a call per ray whose answer, written in pieces, the caller read back whole (a
+/// stalled load), a quarter of the time of a camera ray that misses the scene.
 #[allow(clippy::too_many_arguments)]
 #[inline]
 fn first_hits<A: Accel, P: Primitives, C: Counters, S: HitSink>(
@@ -558,8 +560,8 @@ fn first_hits<A: Accel, P: Primitives, C: Counters, S: HitSink>(
     packets: Packets,
     out: &mut [Option<Hit>],
     counters: &mut C,
-    sink: fn(f32) -> S,
-    hit: fn(&S) -> Option<Hit>,
+    sink: impl Fn(f32) -> S + Copy,
+    hit: impl Fn(&S) -> Option<Hit> + Copy,
 ) {
     assert_eq!(out.len(), rays.len(), "one answer per ray");
     const { assert!(A::PACKET_RAYS <= MAX_PACKET && A::PACKET_RAYS > 0) };
@@ -612,8 +614,8 @@ fn first_hits_of_group<A: Accel, P: Primitives, C: Counters, S: HitSink>(
     packets: Packets,
     answers: &mut [Option<Hit>],
     counters: &mut C,
-    sink: fn(f32) -> S,
-    hit: fn(&S) -> Option<Hit>,
+    sink: impl Fn(f32) -> S + Copy,
+    hit: impl Fn(&S) -> Option<Hit> + Copy,
 ) {
     let alone = |ray: &Ray, counters: &mut C| {
         if !ray.is_traceable() {
