@@ -565,12 +565,7 @@ fn first_hits<A: Accel, P: Primitives, C: Counters, S: HitSink>(
 ) {
     assert_eq!(out.len(), rays.len(), "one answer per ray");
     const { assert!(A::PACKET_RAYS <= MAX_PACKET && A::PACKET_RAYS > 0) };
-    let regroup = A::ORDER_PAYS
-        && match packets {
-            Packets::Auto => A::PACKETS_PAY,
-            Packets::On => true,
-            Packets::Off => false,
-        };
+    let regroup = A::ORDER_PAYS && packets.may_walk(A::PACKETS_PAY);
     let walk = |group: &[Ray], answers: &mut [Option<Hit>], counters: &mut C| {
         first_hits_of_group(accel, prims, group, packets, answers, counters, sink, hit)
     };

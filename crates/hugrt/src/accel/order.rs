@@ -174,14 +174,11 @@ fn by_direction(rays: &[Ray], group: usize) -> Option<Vec<u32>> {
     {
         return None;
     }
-    let sum = rays.iter().fold(Vec3::ZERO, |s, r| s + r.dir).abs();
-    let major = if sum.x >= sum.y && sum.x >= sum.z {
-        0
-    } else if sum.y >= sum.z {
-        1
-    } else {
-        2
-    };
+    let major = rays
+        .iter()
+        .fold(Vec3::ZERO, |s, r| s + r.dir)
+        .abs()
+        .max_position();
     let (u, v) = ((major + 1) % 3, (major + 2) % 3);
     // A slope that is not finite (a direction across the major axis) is NaN, which the
     // extent ignores and the cell's cast makes 0.

@@ -57,15 +57,26 @@ impl Packets {
     /// Every value's name, as `str::parse` reads it.
     pub const NAMES: &[&str] = &["auto", "on", "off"];
 
+    /// Whether some groups may be walked as packets by a structure whose packet walk pays or
+    /// not (`pays`): what [`Packets::walk_together`] asks before looking at the rays.
+    #[inline]
+    pub fn may_walk(self, pays: bool) -> bool {
+        match self {
+            Packets::Auto => pays,
+            Packets::On => true,
+            Packets::Off => false,
+        }
+    }
+
     /// Whether the group `rays` is walked as a packet by a structure whose packet walk pays
     /// or not (`pays`).
     #[inline]
     pub fn walk_together(self, rays: &[Ray], pays: bool) -> bool {
-        match self {
-            Packets::Auto => pays && coherent(rays),
-            Packets::On => rays.len() > 1,
-            Packets::Off => false,
-        }
+        self.may_walk(pays)
+            && match self {
+                Packets::Auto => coherent(rays),
+                _ => rays.len() > 1,
+            }
     }
 }
 
