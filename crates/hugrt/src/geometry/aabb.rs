@@ -29,6 +29,7 @@ impl Aabb {
         Aabb { min, max }
     }
 
+    #[inline]
     pub fn from_points(points: &[Vec3]) -> Self {
         points.iter().fold(Self::EMPTY, |b, &p| b.grow(p))
     }

@@ -3,6 +3,7 @@
 //! passes, no allocation per cell: RTNews "Quicker grid generation"). Every box is widened by
 //! the margin of the module documentation before it is binned.
 
+use super::bounds::CellBounds;
 use super::cells::{BlockIndex, CellIndex};
 use super::header::GridHeader;
 use super::plan::{GridPlan, Prune, Subdivision};
@@ -302,6 +303,8 @@ impl GridHierarchy {
             let cells = cells.finish(refs.len());
             return Ok(GridHierarchy {
                 blocks: BlockIndex::new(&grids, &cells),
+                bounds: CellBounds::build(prims, &store, &grids, &cells, &refs),
+                margin,
                 cells,
                 refs,
                 store,
@@ -337,6 +340,8 @@ impl GridHierarchy {
         drop(pairs);
         Ok(GridHierarchy {
             blocks: BlockIndex::new(&grids, &cells),
+            bounds: CellBounds::build(prims, &store, &grids, &cells, &refs),
+            margin,
             store,
             grids,
             frames,

@@ -65,16 +65,17 @@ impl CellIndex {
         self
     }
 
-    /// The references of cell `i`, or `None` when it has none.
+    /// The references of cell `i` (start and end) and its rank among the occupied cells, or
+    /// `None` when it has none.
     #[inline(always)]
-    pub(super) fn range(&self, i: usize) -> Option<(usize, usize)> {
+    pub(super) fn range(&self, i: usize) -> Option<(usize, usize, usize)> {
         let w = self.occupied[i / 64];
         let bit = 1u64 << (i % 64);
         if w & bit == 0 {
             return None;
         }
         let r = self.rank[i / 64] as usize + (w & (bit - 1)).count_ones() as usize;
-        Some((self.starts[r] as usize, self.starts[r + 1] as usize))
+        Some((self.starts[r] as usize, self.starts[r + 1] as usize, r))
     }
 
     pub(super) fn memory_bytes(&self) -> usize {

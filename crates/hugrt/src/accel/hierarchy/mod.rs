@@ -14,7 +14,8 @@
 //! boxes): its cells are then laid out in that frame and the ray is turned into it.
 //!
 //! # The walk (EG95 §2.3.2)
-//! The 3D-DDA of Amanatides and Woo. In each cell: the objects are tested, then each grid
+//! The 3D-DDA of Amanatides and Woo. In each cell: the objects are tested (where the ray meets
+//! the box of what the cell holds, [`bounds`]: hugrt's, not the papers'), then each grid
 //! referenced there is walked with the same ray state (the hit sink, mailbox), which is what
 //! carries one query through every level; then the walk stops if the nearest hit lies before
 //! the cell's exit. A sub-grid is walked once per ray, over its whole extent, the first time a
@@ -31,7 +32,9 @@
 //!   cell the true ray crosses, corners included, up to the margin;
 //! * the stop test `nearest ≤ exit`: a nearer hit just beyond the exit plane lies within the
 //!   same error of the current cell, hence is referenced by it;
-//! * the watertight triangle test's own rounding (its effective ray is off by a few ulps).
+//! * the watertight triangle test's own rounding (its effective ray is off by a few ulps);
+//! * the slab test of a ray against the box of what a cell holds ([`bounds`]), which the walk
+//!   widens by the margin once more.
 //!
 //! With `margin = M·2^-17` (64 ulps of `M`), hits are those of brute force for ray origins
 //! within a few times `M` of the origin; rays from farther away are first moved to the
@@ -39,9 +42,10 @@
 //!
 //! # Files
 //! `plan` (what a grid is built from), `header` (one grid), `cells` (the occupied cells'
-//! index), `build` (binning a plan), `subdivide` (cutting crowded cells), `walk` (the DDA and
+//! index), `bounds` (the box of what each occupied cell holds), `build` (binning a plan), `subdivide` (cutting crowded cells), `walk` (the DDA and
 //! the nested walk), `stats` (SCG97 §3's statistics).
 
+mod bounds;
 mod build;
 mod cells;
 mod header;
@@ -59,6 +63,7 @@ pub use stats::{GridLevelStats, LevelView};
 use super::Frame;
 use super::store::PrimStore;
 use crate::geometry::Aabb;
+use bounds::CellBounds;
 use cells::{BlockIndex, CellIndex};
 use header::GridHeader;
 
@@ -87,6 +92,10 @@ pub(crate) struct GridHierarchy {
     /// Which blocks of cells hold any, for the packet walk.
     blocks: BlockIndex,
     refs: Vec<u32>,
+    /// The box of what each occupied cell holds ([`bounds`]).
+    bounds: CellBounds,
+    /// The margin every box was widened by (the module documentation).
+    margin: f32,
     /// Whether cells test their triangles eight at a time (`accel::simd`): the processor has AVX2,
     /// the store's offsets fit the gathers, and the spec did not turn it off.
     simd: bool,
@@ -112,6 +121,30 @@ impl GridHierarchy {
         (&self.refs, &self.cells.occupied, &self.cells.starts)
     }
 
+    /// Each occupied cell of the grids without a frame: its box, the box of what it holds
+    /// as the walks decode it ([`bounds`]), and its objects.
+    #[cfg(test)]
+    pub(crate) fn cell_boxes(&self) -> Vec<(Aabb, Aabb, Vec<u32>)> {
+        let mut out = Vec::new();
+        for h in self.grids.iter().filter(|h| h.frame == NO_FRAME) {
+            let [rx, ry, rz] = h.res;
+            for c in
+                (0..rz).flat_map(|z| (0..ry).flat_map(move |y| (0..rx).map(move |x| [x, y, z])))
+            {
+                let idx = h.first_cell as usize
+                    + c[0] as usize
+                    + c[1] as usize * rx as usize
+                    + c[2] as usize * (rx * ry) as usize;
+                if let Some((s, e, rank)) = self.cells.range(idx) {
+                    let (lo, hi) = self.bounds.get(h, rank, c.map(|x| x as i32), self.margin);
+                    let objects = self.refs[s..e].iter().filter(|&&r| r & GRID_TAG == 0);
+                    out.push((h.cell_box(c), Aabb::new(lo, hi), objects.copied().collect()));
+                }
+            }
+        }
+        out
+    }
+
     pub fn grid_count(&self) -> usize {
         self.grids.len()
     }
@@ -135,6 +168,7 @@ impl GridHierarchy {
             + self.frames.capacity() * std::mem::size_of::<Frame>()
             + self.cells.memory_bytes()
             + self.blocks.memory_bytes()
+            + self.bounds.memory_bytes()
             + 4 * self.refs.capacity()
     }
 

@@ -6,14 +6,15 @@
 //! queries group them, `accel::order`) crosses a grid slice by slice along the major axis of
 //! its first ray. In each slice every ray's segment is bounded by the slice's two planes and by
 //! the ray's own interval in the grid, `[t0, nearest hit so far]`; the segment's two ends give
-//! the rectangle of cells it can cross in that slice. The packet looks up the cells of the union of the rectangles (the
-//! occupancy bits only, for most); at the slice's first occupied cell each ray's own
-//! rectangle is found, and each occupied cell is tested for the rays whose rectangle holds
-//! it: the cell is fetched once for all of them, and its triangles are met four at a time by
+//! the rectangle of cells it can cross in that slice. The packet looks up the cells of the
+//! union of the rectangles (the occupancy bits only, for most); at the slice's first occupied
+//! cell each ray's own rectangle is found. Each occupied cell's objects are tested for the rays
+//! whose rectangle holds it and that meet the box of what the cell holds ([`super::bounds`]):
+//! the cell is fetched once for all of them, and its triangles are met four at a time by
 //! eight rays at a time with the packet kernel ([`crate::accel::block::packet_rays_avx2`],
 //! bit for bit the single walk's test). A grid a cell references is entered by the packet,
-//! with the rays that reach the cell and have not walked that grid yet (each ray walks a grid
-//! once, as alone: [`Mailbox`]).
+//! with the rays whose rectangle holds the cell and that have not walked that grid yet (each
+//! ray walks a grid once, as alone: [`Mailbox`]).
 //!
 //! Where the packet does not pay, its rays walk alone: a packet that misses the world grid
 //! stops before any set-up, and rays whose union spans more than [`SPREAD`] cells a ray in a
@@ -56,6 +57,32 @@ pub(crate) const GRID_PACKET: usize = MAX_PACKET;
 /// camera rays; 8 kept less of the shadow rays' gain (4: kitchen, nefertiti and mount shadow
 /// rays 1.05-1.1x faster than without the check).
 const SPREAD: u64 = 4;
+
+/// The rays (a bit each) whose segment `[t0, t1]` meets the box `(lo, hi)`: the slab test of
+/// [`super::bounds::meets`] lane by lane, with [`lesser`] and [`greater`]; a NaN slab (a ray
+/// in the plane of a face of the box, widened beyond any object) may go either way.
+#[inline(always)]
+fn meets_lanes(
+    lo: Vec3,
+    hi: Vec3,
+    o: &[Lanes; 3],
+    inv: &[Lanes; 3],
+    t0: &Lanes,
+    t1: &Lanes,
+) -> u32 {
+    let mut near = 0u32;
+    for l in 0..GRID_PACKET {
+        let (mut a, mut b) = (t0[l], t1[l]);
+        for axis in 0..3 {
+            let ta = (lo[axis] - o[axis][l]) * inv[axis][l];
+            let tb = (hi[axis] - o[axis][l]) * inv[axis][l];
+            a = greater(a, lesser(ta, tb));
+            b = lesser(b, greater(ta, tb));
+        }
+        near |= ((a <= b) as u32) << l;
+    }
+    near
+}
 
 /// Groups of [`PACKET`] rays in a grid packet.
 const GROUPS: usize = GRID_PACKET / PACKET;
@@ -241,6 +268,11 @@ impl GridHierarchy {
         let ou = lanes(&|l| od[l].0[u]);
         let ov = lanes(&|l| od[l].0[v]);
         let dk = lanes(&|l| od[l].1[k]);
+        // For the boxes of what cells hold (`bounds`); a grid in a frame of its own keeps
+        // whole cells, nothing to skip.
+        let cull = h.frame == NO_FRAME;
+        let box_o = [0, 1, 2].map(|a| lanes(&|l| od[l].0[a]));
+        let box_inv = [0, 1, 2].map(|a| lanes(&|l| 1.0 / od[l].1[a]));
         let su = lanes(&|l| od[l].1[u] / od[l].1[k]);
         let sv = lanes(&|l| od[l].1[v] / od[l].1[k]);
         // Each ray's interval in the grid, by the single walk's slab test.
@@ -435,7 +467,7 @@ impl GridHierarchy {
                     for cu in u_lo..=u_hi {
                         let idx = slice_first + cu as usize * stride_u + cv as usize * stride_v;
                         // Most cells are empty: their rays are not worth finding.
-                        let Some((start, stop)) = self.cells.range(idx) else {
+                        let Some((start, stop, rank)) = self.cells.range(idx) else {
                             continue;
                         };
                         let r = r.get_or_insert_with(|| {
@@ -479,7 +511,24 @@ impl GridHierarchy {
                         for _ in 0..here.count_ones() {
                             counters.cell_visit(level);
                         }
-                        self.test_cell_packet(prims, packet, here, start, stop, level, counters);
+                        let mut cell = [0i32; 3];
+                        (cell[k], cell[u], cell[v]) = (slice as i32, fu, fv);
+                        let near = if cull {
+                            let (lo, hi) = self.bounds.get(h, rank, cell, self.margin);
+                            meets_lanes(lo, hi, &box_o, &box_inv, &t0, &end)
+                        } else {
+                            u32::MAX
+                        };
+                        self.test_cell_packet(
+                            prims,
+                            packet,
+                            here & near,
+                            here,
+                            start,
+                            stop,
+                            level,
+                            counters,
+                        );
                         for l in each_lane(here) {
                             end[l] = if packet.live >> l & 1 != 0 {
                                 end[l].min(packet.sinks[l].tmax())
@@ -500,8 +549,9 @@ impl GridHierarchy {
         }
     }
 
-    /// Tests the references `start..end` of one cell for the rays of `here`: its objects ray
-    /// by ray, then the grids it references with the rays that have not walked them.
+    /// Tests the references `start..end` of one cell: its objects for the rays of `here`
+    /// (those that meet the box of what the cell holds), then the grids it references with
+    /// the rays of `grids_here` that have not walked them.
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn test_cell_packet<P: Primitives, C: Counters, S: HitSink>(
@@ -509,6 +559,7 @@ impl GridHierarchy {
         prims: &P,
         packet: &mut Packet<'_, S>,
         here: u32,
+        grids_here: u32,
         start: usize,
         end: usize,
         level: usize,
@@ -543,7 +594,7 @@ impl GridHierarchy {
             }
             let sub = r & !GRID_TAG;
             let mut enter = 0u32;
-            for l in each_lane(here & packet.live) {
+            for l in each_lane(grids_here & packet.live) {
                 enter |= (packet.mail[l].first_grid_visit(sub) as u32) << l;
             }
             if enter != 0 {

@@ -46,7 +46,7 @@ impl GridHierarchy {
                 let refs = self
                     .cells
                     .range(c)
-                    .map_or(&[][..], |(s, e)| &self.refs[s..e]);
+                    .map_or(&[][..], |(s, e, _)| &self.refs[s..e]);
                 let g = refs.iter().filter(|&&r| r & GRID_TAG != 0).count();
                 l.memory_bytes += 4 * !refs.is_empty() as usize;
                 l.object_refs += refs.len() - g;

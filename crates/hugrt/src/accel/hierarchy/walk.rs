@@ -1,8 +1,9 @@
 //! The walk (EG95 §2.3.2): the 3D-DDA of Amanatides and Woo through one grid, each cell's
-//! objects tested (eight triangles at a time where AVX2 allows) and each grid it references
-//! walked with the same ray state; see the module documentation for when it stops.
+//! objects tested (eight triangles at a time where AVX2 allows) where the ray meets the box of
+//! what the cell holds ([`super::bounds`]), and each grid it references walked with the same
+//! ray state; see the module documentation for when it stops.
 
-use super::{GRID_TAG, GridHierarchy, NO_FRAME};
+use super::{GRID_TAG, GridHierarchy, NO_FRAME, bounds};
 use crate::accel::HitSink;
 use crate::accel::{Counters, Mailbox, Primitives};
 use crate::geometry::{PreparedRay, Vec3};
@@ -24,6 +25,8 @@ struct Axis {
     boundary: i32,
     /// Change of the cell index when this plane is crossed.
     jump: isize,
+    /// The cell's coordinate along this axis.
+    cell: i32,
 }
 
 impl Axis {
@@ -54,6 +57,7 @@ impl Axis {
                 step: 0,
                 boundary: 0,
                 jump: 0,
+                cell,
             };
         };
         Axis {
@@ -64,6 +68,7 @@ impl Axis {
             step,
             boundary,
             jump: step as isize * stride,
+            cell,
         }
     }
 
@@ -75,6 +80,7 @@ impl Axis {
             return false;
         }
         *idx += self.jump;
+        self.cell += self.step;
         self.k += self.step;
         self.next = self.base + self.k as f32 * self.delta;
         true
@@ -140,15 +146,22 @@ impl GridHierarchy {
             )
         };
         let (mut ax, mut ay, mut az) = (axis(0), axis(1), axis(2));
+        // A grid in a frame of its own keeps whole cells as boxes (`bounds`): nothing to skip.
+        let cull = h.frame == NO_FRAME;
         let mut far = sink.tmax();
         loop {
             counters.cell_visit(level);
-            if let Some((s, e)) = self.cells.range(idx as usize) {
+            if let Some((s, e, rank)) = self.cells.range(idx as usize) {
                 let refs = &self.refs[s..e];
-                for &r in refs {
-                    self.store.prefetch(r);
-                }
-                if self.test_cell::<P, C, S>(refs, prims, ray, tmin, sink, mail, counters, level) {
+                let objects = !cull || {
+                    let (lo, hi) =
+                        self.bounds
+                            .get(h, rank, [ax.cell, ay.cell, az.cell], self.margin);
+                    bounds::meets(lo, hi, o, inv, tmin, far)
+                };
+                if self.test_cell::<P, C, S>(
+                    refs, prims, ray, tmin, sink, mail, counters, level, objects,
+                ) {
                     return true;
                 }
                 far = sink.tmax();
@@ -179,8 +192,9 @@ impl GridHierarchy {
         false
     }
 
-    /// Tests the references of one cell: its objects ([`Self::test_objects`]), then walks
-    /// the grids it references. Returns `true` when the sink stops the walk.
+    /// Tests the references of one cell: its objects ([`Self::test_objects`]) if `objects`
+    /// (the ray meets the box of what the cell holds), then walks the grids it references.
+    /// Returns `true` when the sink stops the walk.
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     pub(super) fn test_cell<P: Primitives, C: Counters, S: HitSink>(
@@ -193,9 +207,15 @@ impl GridHierarchy {
         mail: &mut Mailbox,
         counters: &mut C,
         level: usize,
+        objects: bool,
     ) -> bool {
-        if self.test_objects::<P, C, S>(refs, prims, ray, tmin, sink, mail, counters, level) {
-            return true;
+        if objects {
+            for &r in refs {
+                self.store.prefetch(r);
+            }
+            if self.test_objects::<P, C, S>(refs, prims, ray, tmin, sink, mail, counters, level) {
+                return true;
+            }
         }
         for &r in refs {
             if r & GRID_TAG != 0 {

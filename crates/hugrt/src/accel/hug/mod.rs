@@ -537,6 +537,51 @@ mod tests {
         );
     }
 
+    /// Every occupied cell's box of what it holds (`hierarchy::bounds`) holds every point of
+    /// its triangles that lies in the cell, and on a terrain, a sheet across its cells, it is
+    /// a fraction of the cell: what lets a ray that crosses the cell away from the sheet skip
+    /// its tests.
+    #[test]
+    fn cell_boxes_hold_their_triangles_and_little_else() {
+        use crate::geometry::Aabb;
+        let terrain = crate::scene::Terrain::with_triangles(20_000, 2).scene();
+        let room = crate::scene::procedural::clustered_room(5_000, 3);
+        for (name, prims, most) in [("terrain", &terrain, 0.6), ("room", &room, 0.6)] {
+            let (store, boxes) = store_with_boxes(prims, TriangleStorage::Copy).unwrap();
+            let (plans, _) = build::plan(&store, &boxes, &HugSettings::default().recipe());
+            let grids =
+                GridHierarchy::build(prims, store, &plans, Prune::None, None, true).unwrap();
+            let cells = grids.cell_boxes();
+            assert!(cells.len() > 100, "{name}: {} cells", cells.len());
+            let mut share = 0f32;
+            for (cell, held, objects) in &cells {
+                for &r in objects {
+                    let Some([a, b, c]) = grids.store.triangle(r) else {
+                        continue;
+                    };
+                    for i in 0..=8 {
+                        for j in 0..=8 - i {
+                            let (u, v) = (i as f32 / 8.0, j as f32 / 8.0);
+                            let p = a + (b - a) * u + (c - a) * v;
+                            assert!(
+                                !cell.contains(p) || held.contains(p),
+                                "{name}: {p} of triangle {r} in {cell:?} outside {held:?}"
+                            );
+                        }
+                    }
+                }
+                let kept = Aabb::new(held.min.max(cell.min), held.max.min(cell.max));
+                share += if kept.is_empty() {
+                    0.0
+                } else {
+                    kept.volume() / cell.volume()
+                };
+            }
+            let share = share / cells.len() as f32;
+            assert!(share < most, "{name}: boxes fill {share:.3} of their cells");
+        }
+    }
+
     /// A HUG of many grids built with its pairs in slices of 5,000 is the HUG built at once,
     /// reference for reference, pruned or not, copied or indexed.
     #[test]
