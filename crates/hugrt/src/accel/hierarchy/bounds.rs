@@ -27,7 +27,7 @@ use super::cells::CellIndex;
 use super::header::GridHeader;
 use super::{GRID_TAG, NO_FRAME};
 use crate::accel::Primitives;
-use crate::accel::store::{PrimStore, finite};
+use crate::accel::store::PrimStore;
 use crate::geometry::{Aabb, Vec3};
 use rayon::prelude::*;
 
@@ -60,31 +60,38 @@ impl CellBounds {
         let firsts: Vec<usize> = grids.iter().map(|h| h.first_cell as usize).collect();
         debug_assert!(firsts.is_sorted(), "grids' cells lie in grid order");
         let words = cells.occupied.len();
-        let parts: Vec<Vec<[u16; 6]>> = (0..words.div_ceil(WORDS_PER_TASK))
-            .into_par_iter()
-            .map(|task| {
-                let first_word = task * WORDS_PER_TASK;
-                let last_word = (first_word + WORDS_PER_TASK).min(words);
-                let mut out = Vec::new();
-                let mut g = firsts.partition_point(|&f| f <= first_word * 64).max(1) - 1;
-                for w in first_word..last_word {
-                    let mut bits = cells.occupied[w];
-                    while bits != 0 {
-                        let idx = w * 64 + bits.trailing_zeros() as usize;
-                        bits &= bits - 1;
-                        while g + 1 < firsts.len() && firsts[g + 1] <= idx {
-                            g += 1;
-                        }
-                        let (s, e, _) = cells.range(idx).expect("an occupied cell");
-                        out.push(cell_box(prims, store, &grids[g], idx, &refs[s..e]));
-                    }
-                }
-                out
-            })
-            .collect();
-        CellBounds {
-            boxes: parts.concat(),
+        let mut boxes = vec![[0u16; 6]; cells.starts.len() - 1];
+        // Each task's words and its share of the boxes, from the ranks of its first word.
+        let mut tasks = Vec::new();
+        let mut rest = &mut boxes[..];
+        for first_word in (0..words).step_by(WORDS_PER_TASK) {
+            let last_word = (first_word + WORDS_PER_TASK).min(words);
+            let held = match cells.rank.get(last_word) {
+                Some(&r) => r as usize - cells.rank[first_word] as usize,
+                None => rest.len(),
+            };
+            let (mine, others) = std::mem::take(&mut rest).split_at_mut(held);
+            rest = others;
+            tasks.push((first_word..last_word, mine));
         }
+        tasks.into_par_iter().for_each(|(words, out)| {
+            let mut g = firsts.partition_point(|&f| f <= words.start * 64).max(1) - 1;
+            let mut at = 0;
+            for w in words {
+                let mut bits = cells.occupied[w];
+                while bits != 0 {
+                    let idx = w * 64 + bits.trailing_zeros() as usize;
+                    bits &= bits - 1;
+                    while g + 1 < firsts.len() && firsts[g + 1] <= idx {
+                        g += 1;
+                    }
+                    let (s, e, _) = cells.range(idx).expect("an occupied cell");
+                    out[at] = cell_box(prims, store, &grids[g], idx, &refs[s..e]);
+                    at += 1;
+                }
+            }
+        });
+        CellBounds { boxes }
     }
 
     /// The box of the occupied cell of rank `rank`, `(cell, cell + 1)` of grid `h` (integer
@@ -126,24 +133,19 @@ fn cell_box<P: Primitives>(
     if h.frame != NO_FRAME {
         return WHOLE;
     }
-    let local = idx - h.first_cell as usize;
-    let (rx, ry) = (h.res[0] as usize, h.res[1] as usize);
-    let c = [
-        (local % rx) as u32,
-        (local / rx % ry) as u32,
-        (local / (rx * ry)) as u32,
-    ];
+    // A grid has fewer than 2^28 cells (`MAX_CELLS`): 32-bit divisions.
+    let local = (idx - h.first_cell as usize) as u32;
+    let (rx, rxy) = (h.res[0], h.res[0] * h.res[1]);
+    let (z, in_layer) = (local / rxy, local % rxy);
+    let c = [in_layer % rx, in_layer / rx, z];
     let cell = h.cell_box(c);
     let mut held = Aabb::EMPTY;
     for &r in refs {
         if r & GRID_TAG != 0 {
             continue;
         }
-        let b = store.bounds(prims, r);
-        if !finite(&b) {
-            return WHOLE;
-        }
-        held = held.union(&b);
+        // Only objects with a finite box are binned.
+        held = held.union(&store.bounds(prims, r));
     }
     let lo = held.min.max(cell.min);
     let hi = held.max.min(cell.max);
