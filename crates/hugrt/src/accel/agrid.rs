@@ -43,6 +43,7 @@ use super::bvh::BoxTree;
 use super::grid::{PRUNE_HELP, SIMD_HELP, store_with_boxes};
 use super::hierarchy::{GridHierarchy, GridPlan, LevelView, Prune, Resolution, Subdivision};
 use super::settings::{Key, Settings, key};
+use super::simd::Simd;
 use super::store::{TriangleStorage, finite};
 use super::{Accel, CellCensus, Counters, HitSink, Mailbox, Primitives, SpecError, StructureStats};
 use crate::geometry::{Aabb, PreparedRay, Ray};
@@ -65,7 +66,7 @@ pub struct AdaptiveSettings {
     pub depth: usize,
     pub prune: Prune,
     /// Triangles tested eight at a time where AVX2 is present.
-    pub simd: bool,
+    pub simd: Simd,
 }
 
 impl Settings for AdaptiveSettings {
@@ -77,7 +78,7 @@ impl Settings for AdaptiveSettings {
         key!("maxp", maxp: usize, 1..=1_000_000, "a cell referencing more objects gets a sub-voxel grid"),
         key!("depth", depth: usize, 0..=15, "levels of sub-voxel grids below the clusters' grids"),
         key!("prune", prune: Prune, (), PRUNE_HELP),
-        key!("simd", simd: bool, (), SIMD_HELP),
+        key!("simd", simd: Simd, (), SIMD_HELP),
     ];
 }
 
@@ -91,7 +92,7 @@ impl Default for AdaptiveSettings {
             maxp: 16,
             depth: 1,
             prune: Prune::None,
-            simd: true,
+            simd: Simd::Widest,
         }
     }
 }

@@ -12,6 +12,7 @@
 
 use super::hierarchy::{GridHierarchy, GridPlan, LevelView, Prune, Resolution};
 use super::settings::{Key, Settings, key};
+use super::simd::Simd;
 use super::store::{STORAGE_HELP, TriangleStorage};
 use super::{
     Accel, CellCensus, Counters, HitSink, PrimStore, Primitives, SpecError, StructureStats,
@@ -36,7 +37,7 @@ pub struct GridSettings {
     /// Cell planes moved off the box's round fractions (hugrt's, not the papers').
     pub shift: bool,
     /// Triangles tested eight at a time where AVX2 is present.
-    pub simd: bool,
+    pub simd: Simd,
     /// How the store holds an indexed mesh's triangles.
     pub store: TriangleStorage,
 }
@@ -47,7 +48,7 @@ impl Default for GridSettings {
             density: DEFAULT_DENSITY,
             prune: Prune::None,
             shift: true,
-            simd: true,
+            simd: Simd::Widest,
             store: TriangleStorage::Auto,
         }
     }
@@ -56,15 +57,14 @@ impl Default for GridSettings {
 /// The help of the keys that several grid structures share.
 pub(crate) const PRUNE_HELP: &str = "true: reference a cell only if the primitive itself touches it; large: only for objects whose box spans 16 cells or more";
 pub(crate) const SHIFT_HELP: &str = "true: cell planes moved off the box's round fractions, one more cell along axes of 4 or more (hugrt's, not the papers')";
-pub(crate) const SIMD_HELP: &str =
-    "false: test a cell's triangles one at a time even where AVX2 is present";
+pub(crate) const SIMD_HELP: &str = "true: AVX-512 or AVX2 where the processor has them; avx2: AVX2 at most; false: the portable code (a cell's triangles one at a time)";
 
 impl Settings for GridSettings {
     const KEYS: &'static [Key<Self>] = &[
         key!("density", density: f32, 0.001..=1000.0, "cells per primitive (RTNews used 1 and 20)"),
         key!("prune", prune: Prune, (), PRUNE_HELP),
         key!("shift", shift: bool, (), SHIFT_HELP),
-        key!("simd", simd: bool, (), SIMD_HELP),
+        key!("simd", simd: Simd, (), SIMD_HELP),
         key!("store", store: TriangleStorage, (), STORAGE_HELP),
     ];
 }

@@ -54,6 +54,7 @@ pub use query::{AnyHit, Closest, EveryHit, Hit, HitSink};
 pub use reach::Reach;
 pub use rgrid::{RecursiveGrid, RecursiveGridSettings};
 pub use settings::{KeyHelp, NoSettings, Settings};
+pub use simd::Simd;
 pub use spec::{Preset, Spec, SpecError};
 
 /// The papers' algorithms as structure settings (a structure's `preset` key), each value with

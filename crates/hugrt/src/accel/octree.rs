@@ -17,6 +17,7 @@ use super::grid::{PRUNE_HELP, SIMD_HELP};
 use super::hierarchy::{Prune, Resolution, Subdivision};
 use super::rgrid::{CutGrids, GUARD_HELP, MAX_DEPTH};
 use super::settings::{Key, Settings, key};
+use super::simd::Simd;
 use super::{Accel, Counters, HitSink, Primitives, SpecError, StructureStats};
 use crate::geometry::Ray;
 
@@ -54,7 +55,7 @@ pub struct OctreeSettings {
     pub guard: bool,
     pub prune: Prune,
     /// Triangles tested eight at a time where AVX2 is present.
-    pub simd: bool,
+    pub simd: Simd,
 }
 
 impl Default for OctreeSettings {
@@ -64,7 +65,7 @@ impl Default for OctreeSettings {
             depth: MAX_DEPTH,
             guard: false,
             prune: Prune::None,
-            simd: true,
+            simd: Simd::Widest,
         }
     }
 }
@@ -75,7 +76,7 @@ impl Settings for OctreeSettings {
         key!("depth", depth: usize, 0..=MAX_DEPTH, "deepest level, the root being 0"),
         key!("guard", guard: bool, (), GUARD_HELP),
         key!("prune", prune: Prune, (), PRUNE_HELP),
-        key!("simd", simd: bool, (), SIMD_HELP),
+        key!("simd", simd: Simd, (), SIMD_HELP),
     ];
     const PRESETS: &'static [Preset] = &[EG95];
 }

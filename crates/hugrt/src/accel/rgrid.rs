@@ -30,6 +30,7 @@
 use super::grid::{PRUNE_HELP, SHIFT_HELP, SIMD_HELP, check_size};
 use super::hierarchy::{GridHierarchy, GridPlan, LevelView, Prune, Resolution, Subdivision};
 use super::settings::{Key, Settings, key};
+use super::simd::Simd;
 use super::{
     Accel, CellCensus, Counters, HitSink, Preset, PrimStore, Primitives, SpecError, StructureStats,
 };
@@ -50,7 +51,7 @@ impl CutGrids {
         sub: Subdivision,
         prune: Prune,
         shift: bool,
-        simd: bool,
+        simd: Simd,
     ) -> Result<CutGrids, SpecError> {
         let n = prims.len();
         check_size(n)?;
@@ -132,7 +133,7 @@ pub struct RecursiveGridSettings {
     /// Cell planes moved off the box's round fractions (hugrt's).
     pub shift: bool,
     /// Triangles tested eight at a time where AVX2 is present.
-    pub simd: bool,
+    pub simd: Simd,
 }
 
 impl Default for RecursiveGridSettings {
@@ -145,7 +146,7 @@ impl Default for RecursiveGridSettings {
             guard: false,
             prune: Prune::None,
             shift: true,
-            simd: true,
+            simd: Simd::Widest,
         }
     }
 }
@@ -159,7 +160,7 @@ impl Settings for RecursiveGridSettings {
         key!("guard", guard: bool, (), GUARD_HELP),
         key!("prune", prune: Prune, (), PRUNE_HELP),
         key!("shift", shift: bool, (), SHIFT_HELP),
-        key!("simd", simd: bool, (), SIMD_HELP),
+        key!("simd", simd: Simd, (), SIMD_HELP),
     ];
     const PRESETS: &'static [Preset] = &[EG95];
 }

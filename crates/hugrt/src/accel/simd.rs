@@ -65,6 +65,45 @@ pub struct Lanes {
     pub scalar: u32,
 }
 
+/// Which of the processor's vector instructions the grids may use (the `simd` key of the grid
+/// structures), each chosen at run time where the processor has it and the portable code
+/// otherwise.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Simd {
+    /// The widest the processor has: the packet walk compiled for AVX-512 where it is present
+    /// (32 rays in two registers a row, and twice the registers: the HUG's camera rays
+    /// 1.03–1.08× faster than with AVX2, its shadow rays 1.05–1.12×, docs/measurements.md),
+    /// AVX2 otherwise.
+    Widest,
+    /// AVX2 at most, even where AVX-512 is present (what tests use to run the AVX2 path there).
+    Avx2,
+    /// The portable code only: a cell's triangles one at a time.
+    Off,
+}
+
+crate::accel::settings::choice_value!(Simd {
+    Simd::Widest => "true",
+    Simd::Avx2 => "avx2",
+    Simd::Off => "false",
+});
+
+/// Whether the running processor has what the AVX-512 packet walk is compiled for, beside
+/// AVX2 ([`available`]).
+pub(crate) fn avx512_available() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        available()
+            && std::arch::is_x86_feature_detected!("avx512f")
+            && std::arch::is_x86_feature_detected!("avx512vl")
+            && std::arch::is_x86_feature_detected!("avx512bw")
+            && std::arch::is_x86_feature_detected!("avx512dq")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
 /// Whether the running processor has what [`triangles8`] needs.
 pub fn available() -> bool {
     #[cfg(target_arch = "x86_64")]

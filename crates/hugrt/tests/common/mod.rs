@@ -73,6 +73,10 @@ pub fn specs() -> Vec<String> {
             "grid:simd=false",
             "hug:simd=false,filter=levels,min_cluster=1,loose=1e30",
             "rgrid:simd=false,maxp=4",
+            // AVX2 at most: where the processor has AVX-512 the others walk packets with it.
+            "grid:simd=avx2",
+            "hug:simd=avx2,filter=levels,min_cluster=1,loose=1e30",
+            "rgrid:simd=avx2,maxp=4",
             // Triangles tested through their mesh's indices (where the scene is a mesh), by
             // eight and one at a time.
             "grid:store=index",

@@ -8,7 +8,7 @@ use super::cells::{BlockIndex, CellIndex};
 use super::header::GridHeader;
 use super::plan::{GridPlan, Prune, Subdivision};
 use super::{GRID_TAG, GridHierarchy, MAX_REFS_PER_ITEM, MIN_REF_BUDGET, NO_FRAME};
-use crate::accel::simd;
+use crate::accel::simd::{self, Simd};
 use crate::accel::sort::radix_sort_high32_parts;
 use crate::accel::store::{PrimStore, finite};
 use crate::accel::{Frame, Primitives, SpecError};
@@ -142,7 +142,7 @@ impl GridHierarchy {
         plans: &[GridPlan],
         prune: Prune,
         subdivision: Option<Subdivision>,
-        simd: bool,
+        simd: Simd,
     ) -> Result<GridHierarchy, SpecError> {
         Self::build_in_slices(prims, store, plans, prune, subdivision, simd, SLICE_PAIRS)
     }
@@ -160,7 +160,7 @@ impl GridHierarchy {
         plans: &[GridPlan],
         prune: Prune,
         subdivision: Option<Subdivision>,
-        simd: bool,
+        simd: Simd,
         slice_pairs: u64,
     ) -> Result<GridHierarchy, SpecError> {
         let scene = (0..store.len() as u32)
@@ -249,7 +249,8 @@ impl GridHierarchy {
                 (0..k).map(move |c| (g, c * n / k..(c + 1) * n / k))
             })
             .collect();
-        let simd = simd && simd::available() && store.simd_fits();
+        let avx512 = simd == Simd::Widest && simd::avx512_available() && store.simd_fits();
+        let simd = simd != Simd::Off && simd::available() && store.simd_fits();
         // The pairs of the cells in `keep`, a list per task. Pass 2 sorts them stably by cell,
         // the lists as they are, in task order: each cell keeps its objects in store order,
         // then its grids.
@@ -311,6 +312,7 @@ impl GridHierarchy {
                 grids,
                 frames,
                 simd,
+                avx512,
                 uncut: 0,
             });
         }
@@ -348,6 +350,7 @@ impl GridHierarchy {
             cells,
             refs,
             simd,
+            avx512,
             uncut,
         })
     }

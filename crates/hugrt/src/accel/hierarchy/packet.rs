@@ -184,8 +184,9 @@ impl GridHierarchy {
         self.walk_packet(0, prims, &mut packet, u32::MAX >> (32 - n), counters);
     }
 
-    /// Walks grid `g` with the rays of `mask` (and still live): compiled for AVX2 where the
-    /// processor has it, so that the lane loops of [`Self::slices`] are one register each.
+    /// Walks grid `g` with the rays of `mask` (and still live): compiled for AVX-512 or AVX2
+    /// where the processor has them and the spec allows (`Simd`), so that the lane loops of
+    /// [`Self::slices`] are one or two registers each.
     fn walk_packet<P: Primitives, C: Counters, S: HitSink>(
         &self,
         g: u32,
@@ -195,12 +196,37 @@ impl GridHierarchy {
         counters: &mut C,
     ) {
         #[cfg(target_arch = "x86_64")]
+        if self.avx512 {
+            // SAFETY: `avx512` is set only where AVX-512 (F, VL, BW, DQ) and AVX2 are present
+            // (`build`, `simd::avx512_available`), all the function's attribute enables.
+            unsafe { self.walk_packet_avx512(g, prims, packet, mask, counters) };
+            return;
+        }
+        #[cfg(target_arch = "x86_64")]
         if self.simd {
             // SAFETY: `simd` is set only where AVX2 is present (`build`), all the function's
             // attribute enables.
             unsafe { self.walk_packet_avx2(g, prims, packet, mask, counters) };
             return;
         }
+        self.slices(g, prims, packet, mask, counters);
+    }
+
+    /// [`Self::slices`] compiled for AVX-512: the lane loops of 32 rays two registers each,
+    /// and 32 vector registers rather than 16, where the walk's state no longer spills.
+    ///
+    /// # Safety
+    /// The processor must support AVX-512 F, VL, BW and DQ, and AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,avx512f,avx512vl,avx512bw,avx512dq")]
+    unsafe fn walk_packet_avx512<P: Primitives, C: Counters, S: HitSink>(
+        &self,
+        g: u32,
+        prims: &P,
+        packet: &mut Packet<'_, S>,
+        mask: u32,
+        counters: &mut C,
+    ) {
         self.slices(g, prims, packet, mask, counters);
     }
 

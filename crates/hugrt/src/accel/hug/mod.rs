@@ -47,6 +47,7 @@ use super::Prune;
 use super::grid::{PRUNE_HELP, SHIFT_HELP, SIMD_HELP, store_with_boxes};
 use super::hierarchy::{GridHierarchy, LevelView};
 use super::settings::{Key, Settings, key};
+use super::simd::Simd;
 use super::store::{STORAGE_HELP, TriangleStorage};
 use super::{Accel, CellCensus, Counters, HitSink, Preset, Primitives, SpecError, StructureStats};
 use crate::geometry::Ray;
@@ -108,7 +109,7 @@ pub const DEFAULTS: HugSettings = HugSettings {
     insert: Insertion::Contained,
     prune: Prune::Large,
     shift: true,
-    simd: true,
+    simd: Simd::Widest,
     store: TriangleStorage::Auto,
 };
 
@@ -202,7 +203,7 @@ pub struct HugSettings {
     /// Cell planes moved off the box's round fractions (hugrt's).
     pub shift: bool,
     /// Triangles tested eight at a time where AVX2 is present.
-    pub simd: bool,
+    pub simd: Simd,
     /// How the store holds an indexed mesh's triangles.
     pub store: TriangleStorage,
 }
@@ -232,7 +233,7 @@ impl Settings for HugSettings {
         key!("insert", insert: Insertion, (), "contained (reference a grid below the deepest grid containing it) or fig9 (also in grids it overlaps)"),
         key!("prune", prune: Prune, (), PRUNE_HELP),
         key!("shift", shift: bool, (), SHIFT_HELP),
-        key!("simd", simd: bool, (), SIMD_HELP),
+        key!("simd", simd: Simd, (), SIMD_HELP),
         key!("store", store: TriangleStorage, (), STORAGE_HELP),
     ];
     const PRESETS: &'static [Preset] = &[EG95, SCG97];
@@ -549,8 +550,8 @@ mod tests {
         for (name, prims, most) in [("terrain", &terrain, 0.6), ("room", &room, 0.6)] {
             let (store, boxes) = store_with_boxes(prims, TriangleStorage::Copy).unwrap();
             let (plans, _) = build::plan(&store, &boxes, &HugSettings::default().recipe());
-            let grids =
-                GridHierarchy::build(prims, store, &plans, Prune::None, None, true).unwrap();
+            let grids = GridHierarchy::build(prims, store, &plans, Prune::None, None, Simd::Widest)
+                .unwrap();
             let cells = grids.cell_boxes();
             assert!(cells.len() > 100, "{name}: {} cells", cells.len());
             let mut share = 0f32;
@@ -602,7 +603,13 @@ mod tests {
                     let (store, boxes) = store_with_boxes(prims, storage).unwrap();
                     let (plans, _) = build::plan(&store, &boxes, &settings.recipe());
                     let grids = GridHierarchy::build_in_slices(
-                        prims, store, &plans, prune, None, true, slice,
+                        prims,
+                        store,
+                        &plans,
+                        prune,
+                        None,
+                        Simd::Widest,
+                        slice,
                     )
                     .unwrap();
                     (plans.len(), grids)
