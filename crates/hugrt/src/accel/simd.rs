@@ -70,10 +70,10 @@ pub struct Lanes {
 /// otherwise.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Simd {
-    /// The widest the processor has: the packet walk compiled for AVX-512 where it is present
-    /// (32 rays in two registers a row, and twice the registers: the HUG's camera rays
-    /// 1.03–1.08× faster than with AVX2, its shadow rays 1.05–1.12×, docs/measurements.md),
-    /// AVX2 otherwise.
+    /// The widest the processor has: the packet walk and the single walk compiled for AVX-512
+    /// where it is present (32 rays in two registers a row, and twice the registers: the
+    /// HUG's camera rays 1.03–1.08× faster than with AVX2, its shadow rays 1.05–1.12×, its
+    /// incoherent rays 1.08–1.12×; docs/measurements.md), AVX2 otherwise.
     Widest,
     /// AVX2 at most, even where AVX-512 is present (what tests use to run the AVX2 path there).
     Avx2,
@@ -87,8 +87,8 @@ crate::accel::settings::choice_value!(Simd {
     Simd::Off => "false",
 });
 
-/// Whether the running processor has what the AVX-512 packet walk is compiled for, beside
-/// AVX2 ([`available`]).
+/// Whether the running processor has what the AVX-512 walks are compiled for, beside AVX2
+/// ([`available`]).
 pub(crate) fn avx512_available() -> bool {
     #[cfg(target_arch = "x86_64")]
     {
@@ -97,6 +97,10 @@ pub(crate) fn avx512_available() -> bool {
             && std::arch::is_x86_feature_detected!("avx512vl")
             && std::arch::is_x86_feature_detected!("avx512bw")
             && std::arch::is_x86_feature_detected!("avx512dq")
+            && std::arch::is_x86_feature_detected!("popcnt")
+            && std::arch::is_x86_feature_detected!("bmi1")
+            && std::arch::is_x86_feature_detected!("bmi2")
+            && std::arch::is_x86_feature_detected!("lzcnt")
     }
     #[cfg(not(target_arch = "x86_64"))]
     {

@@ -99,7 +99,7 @@ pub(crate) struct GridHierarchy {
     /// Whether cells test their triangles eight at a time (`accel::simd`): the processor has AVX2,
     /// the store's offsets fit the gathers, and the spec did not turn it off.
     simd: bool,
-    /// Whether the packet walk is the one compiled for AVX-512 (`Simd::Widest` where the
+    /// Whether the walks are the ones compiled for AVX-512 (`Simd::Widest` where the
     /// processor has it).
     avx512: bool,
     /// Crowded cells [`Subdivision`] left uncut because the budgets would overflow.

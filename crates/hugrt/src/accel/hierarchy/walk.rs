@@ -91,8 +91,53 @@ impl GridHierarchy {
     /// Walks grid `g` along `ray` from `tmin`, offering hits to `sink`; the grid's
     /// `GridPlan::level` is where the counters count. Returns `true` when the sink stops the
     /// whole query. The ray must be traceable ([`crate::geometry::Ray::is_traceable`]).
+    /// Compiled for AVX-512 where the packet walk is ([`crate::accel::Simd`]).
     #[allow(clippy::too_many_arguments)]
     pub fn walk<P: Primitives, C: Counters, S: HitSink>(
+        &self,
+        g: u32,
+        prims: &P,
+        ray: &PreparedRay,
+        tmin: f32,
+        sink: &mut S,
+        mail: &mut Mailbox,
+        counters: &mut C,
+    ) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        if self.avx512 {
+            // SAFETY: `avx512` is set only where the processor has every feature the
+            // function's attribute enables (`build`, `simd::avx512_available`).
+            return unsafe { self.walk_avx512(g, prims, ray, tmin, sink, mail, counters) };
+        }
+        self.walk_grid(g, prims, ray, tmin, sink, mail, counters)
+    }
+
+    /// [`Self::walk_grid`] compiled for AVX-512: twice the vector registers, and POPCNT for
+    /// the occupied cells' ranks.
+    ///
+    /// # Safety
+    /// The processor must support AVX-512 F, VL, BW and DQ, AVX2, POPCNT, BMI1, BMI2 and
+    /// LZCNT.
+    #[cfg(target_arch = "x86_64")]
+    #[allow(clippy::too_many_arguments)]
+    #[target_feature(enable = "avx2,avx512f,avx512vl,avx512bw,avx512dq,popcnt,bmi1,bmi2,lzcnt")]
+    unsafe fn walk_avx512<P: Primitives, C: Counters, S: HitSink>(
+        &self,
+        g: u32,
+        prims: &P,
+        ray: &PreparedRay,
+        tmin: f32,
+        sink: &mut S,
+        mail: &mut Mailbox,
+        counters: &mut C,
+    ) -> bool {
+        self.walk_grid(g, prims, ray, tmin, sink, mail, counters)
+    }
+
+    /// [`Self::walk`] in the instructions of its caller.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn walk_grid<P: Primitives, C: Counters, S: HitSink>(
         &self,
         g: u32,
         prims: &P,
