@@ -65,7 +65,7 @@ pub struct AdaptiveSettings {
     /// Levels of sub-voxel grids below the clusters' grids (at most 15).
     pub depth: usize,
     pub prune: Prune,
-    /// Triangles tested eight at a time where AVX2 is present.
+    /// Which vector instructions the walks and the triangle tests may use ([`Simd`]).
     pub simd: Simd,
 }
 

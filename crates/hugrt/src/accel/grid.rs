@@ -36,7 +36,7 @@ pub struct GridSettings {
     pub prune: Prune,
     /// Cell planes moved off the box's round fractions (hugrt's, not the papers').
     pub shift: bool,
-    /// Triangles tested eight at a time where AVX2 is present.
+    /// Which vector instructions the walks and the triangle tests may use ([`Simd`]).
     pub simd: Simd,
     /// How the store holds an indexed mesh's triangles.
     pub store: TriangleStorage,

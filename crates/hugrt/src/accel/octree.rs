@@ -54,7 +54,7 @@ pub struct OctreeSettings {
     /// A cell holding every object of its grid is not cut again (hugrt's).
     pub guard: bool,
     pub prune: Prune,
-    /// Triangles tested eight at a time where AVX2 is present.
+    /// Which vector instructions the walks and the triangle tests may use ([`Simd`]).
     pub simd: Simd,
 }
 

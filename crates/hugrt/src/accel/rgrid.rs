@@ -132,7 +132,7 @@ pub struct RecursiveGridSettings {
     pub prune: Prune,
     /// Cell planes moved off the box's round fractions (hugrt's).
     pub shift: bool,
-    /// Triangles tested eight at a time where AVX2 is present.
+    /// Which vector instructions the walks and the triangle tests may use ([`Simd`]).
     pub simd: Simd,
 }
 

@@ -174,13 +174,3 @@ fn cell_box<P: Primitives>(
         high(qhi.z),
     ]
 }
-
-/// Whether the segment `[tmin, tmax]` of the ray `o + t·d` (`inv = 1/d`) meets the box
-/// `(lo, hi)`. A slab whose distance is NaN (0·∞: the ray runs in the plane of a face of the
-/// box, widened by the margin beyond any object) may go either way.
-#[inline(always)]
-pub(super) fn meets(lo: Vec3, hi: Vec3, o: Vec3, inv: Vec3, tmin: f32, tmax: f32) -> bool {
-    let ta = (lo - o) * inv;
-    let tb = (hi - o) * inv;
-    tmin.max(ta.min(tb).max_element()) <= tmax.min(ta.max(tb).min_element())
-}

@@ -9,6 +9,19 @@ use crate::geometry::{Aabb, Vec3};
 /// distance by it makes the slab test conservative under rounding.
 const ROBUST_FAR: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
 
+/// The interval `[t0, t1]` of the ray `o + t·d` (`inv = 1/d`) in the box `(min, max)`, within
+/// `[tmin, tmax]`, its far end widened by [`ROBUST_FAR`]; empty when `t0 > t1`. A grid's box
+/// ([`GridHeader::interval`]) and the box of what a cell holds (`bounds`) are met by it.
+#[inline(always)]
+pub(super) fn slab(min: Vec3, max: Vec3, o: Vec3, inv: Vec3, tmin: f32, tmax: f32) -> (f32, f32) {
+    let ta = (min - o) * inv;
+    let tb = (max - o) * inv;
+    (
+        tmin.max(ta.min(tb).max_element()),
+        tmax.min(ta.max(tb).min_element() * ROBUST_FAR),
+    )
+}
+
 #[derive(Clone, Copy, Debug)]
 pub(super) struct GridHeader {
     /// The grid's box, in its own frame.
@@ -37,12 +50,7 @@ impl GridHeader {
     /// single walk and the packet walk both enter a grid by it.
     #[inline(always)]
     pub(super) fn interval(&self, o: Vec3, inv: Vec3, tmin: f32, tmax: f32) -> (f32, f32) {
-        let ta = (self.min - o) * inv;
-        let tb = (self.max - o) * inv;
-        (
-            tmin.max(ta.min(tb).max_element()),
-            tmax.min(ta.max(tb).min_element() * ROBUST_FAR),
-        )
+        slab(self.min, self.max, o, inv, tmin, tmax)
     }
 
     #[inline(always)]

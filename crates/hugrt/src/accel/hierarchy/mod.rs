@@ -42,8 +42,9 @@
 //!
 //! # Files
 //! `plan` (what a grid is built from), `header` (one grid), `cells` (the occupied cells'
-//! index), `bounds` (the box of what each occupied cell holds), `build` (binning a plan), `subdivide` (cutting crowded cells), `walk` (the DDA and
-//! the nested walk), `stats` (SCG97 §3's statistics).
+//! index), `bounds` (the box of what each occupied cell holds), `build` (binning a plan),
+//! `subdivide` (cutting crowded cells), `walk` (the DDA and the nested walk), `stats` (SCG97
+//! §3's statistics).
 
 mod bounds;
 mod build;

@@ -58,9 +58,10 @@ pub(crate) const GRID_PACKET: usize = MAX_PACKET;
 /// rays 1.05-1.1x faster than without the check).
 const SPREAD: u64 = 4;
 
-/// The rays (a bit each) whose segment `[t0, t1]` meets the box `(lo, hi)`: the slab test of
-/// [`super::bounds::meets`] lane by lane, with [`lesser`] and [`greater`]; a NaN slab (a ray
-/// in the plane of a face of the box, widened beyond any object) may go either way.
+/// The rays (a bit each) whose segment `[t0, t1]` meets the box `(lo, hi)` of what a cell holds
+/// ([`super::bounds`]): the slab test lane by lane, with [`lesser`] and [`greater`]; a NaN slab
+/// (a ray in the plane of a face of the box, widened by the margin beyond any object) may go
+/// either way.
 #[inline(always)]
 fn meets_lanes(
     lo: Vec3,

@@ -3,7 +3,8 @@
 //! what the cell holds ([`super::bounds`]), and each grid it references walked with the same
 //! ray state; see the module documentation for when it stops.
 
-use super::{GRID_TAG, GridHierarchy, NO_FRAME, bounds};
+use super::header::slab;
+use super::{GRID_TAG, GridHierarchy, NO_FRAME};
 use crate::accel::HitSink;
 use crate::accel::{Counters, Mailbox, Primitives};
 use crate::geometry::{PreparedRay, Vec3};
@@ -202,7 +203,8 @@ impl GridHierarchy {
                     let (lo, hi) =
                         self.bounds
                             .get(h, rank, [ax.cell, ay.cell, az.cell], self.margin);
-                    bounds::meets(lo, hi, o, inv, tmin, far)
+                    let (t0, t1) = slab(lo, hi, o, inv, tmin, far);
+                    t0 <= t1
                 };
                 if self.test_cell::<P, C, S>(
                     refs, prims, ray, tmin, sink, mail, counters, level, objects,
