@@ -75,11 +75,19 @@ impl Moved {
 impl Reach {
     /// The reach of `prims`, as every structure built over them has it ([`super::Accel::reach`]).
     pub fn of<P: Primitives>(prims: &P) -> Reach {
-        let bounds = (0..prims.len())
-            .into_par_iter()
-            .map(|i| prims.bounds(i))
-            .filter(finite)
-            .reduce(|| Aabb::EMPTY, |a, b| a.union(&b));
+        Reach::from_bounds(
+            (0..prims.len())
+                .into_par_iter()
+                .map(|i| prims.bounds(i))
+                .filter(finite)
+                .reduce(|| Aabb::EMPTY, |a, b| a.union(&b)),
+        )
+    }
+
+    /// The reach of primitives whose finite boxes' union is `bounds` (a union does not depend
+    /// on the order it is taken in, so a build that already visits every box gets the same
+    /// reach as [`Reach::of`]).
+    pub fn from_bounds(bounds: Aabb) -> Reach {
         let far = if bounds.is_empty() {
             f32::INFINITY
         } else {

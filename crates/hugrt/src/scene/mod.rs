@@ -473,8 +473,14 @@ impl Primitives for Scene {
     fn len(&self) -> usize {
         Scene::len(self)
     }
+    /// A mesh triangle's box straight from its vertices, rather than through
+    /// [`Scene::shape`], which copies a whole shape: the builds read every box.
+    #[inline]
     fn bounds(&self, i: usize) -> Aabb {
-        self.shape(i).bounds()
+        match self.shapes.get(i) {
+            Some(s) => s.bounds(),
+            None => Aabb::from_points(&self.mesh.triangle(i - self.shapes.len())),
+        }
     }
     #[inline]
     fn intersect(&self, i: usize, ray: &PreparedRay, tmin: f32, tmax: f32) -> Option<f32> {
@@ -490,11 +496,13 @@ impl Primitives for Scene {
     fn shared_vertices(&self) -> Option<std::sync::Arc<Vec<Vec3>>> {
         Some(self.mesh.shared_vertices())
     }
+    #[inline]
     fn kind(&self, i: usize) -> PrimitiveKind {
-        match self.shape(i) {
-            Shape::Triangle(v) | Shape::Patch { v, .. } => PrimitiveKind::Triangle(v),
-            Shape::Sphere(s) => PrimitiveKind::Sphere(s),
-            Shape::Cone(c) => PrimitiveKind::Cone(c),
+        match self.shapes.get(i) {
+            Some(Shape::Triangle(v) | Shape::Patch { v, .. }) => PrimitiveKind::Triangle(*v),
+            Some(Shape::Sphere(s)) => PrimitiveKind::Sphere(*s),
+            Some(Shape::Cone(c)) => PrimitiveKind::Cone(*c),
+            None => PrimitiveKind::Triangle(self.mesh.triangle(i - self.shapes.len())),
         }
     }
 }

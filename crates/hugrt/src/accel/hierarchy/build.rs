@@ -1,7 +1,9 @@
 //! Building the grids of a plan: boxes and resolutions bottom-up within the reference budget,
 //! then every item binned into `(cell, reference)` pairs in parallel and sorted by cell (two
-//! passes, no allocation per cell: RTNews "Quicker grid generation"). Every box is widened by
-//! the margin of the module documentation before it is binned.
+//! passes, no allocation per cell: RTNews "Quicker grid generation"), by a counting sort within
+//! each grid ([`sort_into_cells`]), or a radix sort of all the pairs where cells are then
+//! subdivided or the pairs are taken in slices. Every box is widened by the margin of the
+//! module documentation before it is binned.
 
 use super::bounds::CellBounds;
 use super::cells::{BlockIndex, CellIndex};
@@ -122,6 +124,97 @@ impl<P: Primitives> Items<'_, P> {
             .fold(|| Aabb::EMPTY, |a, (_, b)| a.union(&b))
             .reduce(|| Aabb::EMPTY, |a, b| a.union(&b))
     }
+}
+
+/// The references of `parts` (the binned lists of `tasks`, one each) in cell order, and their
+/// cell index: a counting sort within each grid's cells, which come one grid after another.
+/// A grid's lists are its tasks', in task order, and each list keeps its order within a cell,
+/// so every cell lists its references as the stable radix sort of all the pairs did (a test
+/// checks, against the sliced build). One pass counts and one places, with counters per grid
+/// (a HUG's many small grids' stay in cache), where the radix sort went over every pair two or
+/// three times and the cell index and the references took two more: the four kitchens' HUG
+/// built 1.23× faster with it on one thread, the meshes' 1.08–1.12×, the uniform grid's
+/// 1.03–1.12×.
+fn sort_into_cells(
+    parts: Vec<Vec<u64>>,
+    tasks: &[(usize, std::ops::Range<usize>)],
+    grids: &[GridHeader],
+) -> (CellIndex, Vec<u32>) {
+    use std::sync::atomic::{AtomicU32, Ordering::Relaxed};
+    let first_cell = |t: usize| grids[tasks[t].0].first_cell as usize;
+    // Each list's count of references per cell of its grid.
+    let mut counts: Vec<Vec<u32>> = parts
+        .par_iter()
+        .enumerate()
+        .map(|(t, part)| {
+            let (mut count, first) = (vec![0u32; grids[tasks[t].0].cells()], first_cell(t));
+            for &p in part {
+                count[(p >> 32) as usize - first] += 1;
+            }
+            count
+        })
+        .collect();
+    // The lists of each grid (consecutive tasks) and where its references begin.
+    let mut groups: Vec<(usize, std::ops::Range<usize>, usize)> = Vec::new();
+    let mut first = 0;
+    for (t, (g, _)) in tasks.iter().enumerate() {
+        match groups.last_mut() {
+            Some((last, range, _)) if *last == *g => range.end = t + 1,
+            _ => groups.push((*g, t..t + 1, first)),
+        }
+        first += parts[t].len();
+    }
+    let total = first;
+    // Each list's counts become its cursors, cell by cell and list by list; each grid reports
+    // its occupied cells (local index) and where their references start.
+    let mut rest: &mut [Vec<u32>] = &mut counts;
+    let mut jobs = Vec::with_capacity(groups.len());
+    for (g, range, first) in &groups {
+        let (mine, tail) = std::mem::take(&mut rest).split_at_mut(range.len());
+        rest = tail;
+        jobs.push((*g, mine, *first));
+    }
+    let occupied: Vec<Vec<(u32, u32)>> = jobs
+        .into_par_iter()
+        .map(|(g, lists, first)| {
+            let mut at = first as u32;
+            let mut out = Vec::new();
+            for c in 0..grids[g].cells() {
+                let start = at;
+                for list in lists.iter_mut() {
+                    (list[c], at) = (at, at + list[c]);
+                }
+                if at > start {
+                    out.push((c as u32, start));
+                }
+            }
+            out
+        })
+        .collect();
+    // Atomic only so that the lists write their own, interleaved places from safe code: a
+    // relaxed store is a plain store.
+    let refs: Vec<AtomicU32> = (0..total).map(|_| AtomicU32::new(0)).collect();
+    parts
+        .par_iter()
+        .zip(counts.par_iter_mut())
+        .enumerate()
+        .for_each(|(t, (part, cursor))| {
+            let first = first_cell(t);
+            for &p in part {
+                let c = &mut cursor[(p >> 32) as usize - first];
+                refs[*c as usize].store(p as u32, Relaxed);
+                *c += 1;
+            }
+        });
+    let cell_count = grids
+        .last()
+        .map_or(0, |h| h.first_cell as usize + h.cells());
+    let mut index = CellIndex::empty(cell_count);
+    for ((g, _, _), cells) in groups.iter().zip(&occupied) {
+        index.extend_occupied(grids[*g].first_cell as usize, cells);
+    }
+    let refs: Vec<u32> = refs.into_iter().map(AtomicU32::into_inner).collect();
+    (index.finish(total), refs)
 }
 
 impl GridHierarchy {
@@ -324,22 +417,23 @@ impl GridHierarchy {
                 "{count} references: more than one hierarchy can address"
             )));
         }
-        // Pass 2: the cell index and the references come straight from the sorted pairs.
-        let mut pairs = radix_sort_high32_parts(pairs);
+        // Pass 2: the cell index and the references, from the pairs sorted by cell.
         let mut uncut = 0;
-        if let Some(sub) = subdivision {
-            pairs = Self::subdivide(
-                &binner,
-                &mut grids,
-                pairs,
-                &mut total_cells,
-                &sub,
-                &mut uncut,
-            );
-        }
-        let cells = CellIndex::from_sorted(&pairs, total_cells as usize);
-        let refs: Vec<u32> = pairs.par_iter().map(|&p| p as u32).collect();
-        drop(pairs);
+        let (cells, refs) = match subdivision {
+            None => sort_into_cells(pairs, &tasks, &grids),
+            Some(sub) => {
+                let pairs = Self::subdivide(
+                    &binner,
+                    &mut grids,
+                    radix_sort_high32_parts(pairs),
+                    &mut total_cells,
+                    &sub,
+                    &mut uncut,
+                );
+                let cells = CellIndex::from_sorted(&pairs, total_cells as usize);
+                (cells, pairs.par_iter().map(|&p| p as u32).collect())
+            }
+        };
         Ok(GridHierarchy {
             blocks: BlockIndex::new(&grids, &cells),
             bounds: CellBounds::build(prims, &store, &grids, &cells, &refs),

@@ -48,6 +48,16 @@ impl CellIndex {
         }
     }
 
+    /// Adds occupied cells `first + c` for every `(c, start)` of `cells` (in cell order, all
+    /// past the cells added before), whose references begin at `start`.
+    pub(super) fn extend_occupied(&mut self, first: usize, cells: &[(u32, u32)]) {
+        for &(c, start) in cells {
+            let c = first + c as usize;
+            self.starts.push(start);
+            self.occupied[c / 64] |= 1 << (c % 64);
+        }
+    }
+
     /// The index, once every cell is added; `references` is their total.
     pub(super) fn finish(mut self, references: usize) -> CellIndex {
         self.starts.push(references as u32);

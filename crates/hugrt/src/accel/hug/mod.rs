@@ -584,11 +584,22 @@ mod tests {
     }
 
     /// A HUG of many grids built with its pairs in slices of 5,000 is the HUG built at once,
-    /// reference for reference, pruned or not, copied or indexed.
+    /// reference for reference, pruned or not, copied or indexed: the slices are sorted by
+    /// the radix sort, the whole by the counting sort within each grid. Four threads, so that
+    /// the terrain's world grid (40,000 items) is binned in four lists the counting sort
+    /// merges.
     #[test]
     fn grids_built_in_slices_are_the_grids_built_at_once() {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(4)
+            .build()
+            .unwrap()
+            .install(slices_and_whole_agree);
+    }
+
+    fn slices_and_whole_agree() {
         let scene = crate::scene::procedural::clustered_room(20_000, 3);
-        let mesh = crate::scene::Terrain::with_triangles(20_000, 2).scene();
+        let mesh = crate::scene::Terrain::with_triangles(40_000, 2).scene();
         let settings = HugSettings {
             min_cluster: 1,
             loose: 1e30,
