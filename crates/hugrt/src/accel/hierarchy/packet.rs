@@ -13,8 +13,9 @@
 //! the cell is fetched once for all of them, and its triangles are met four at a time by
 //! eight rays at a time with the packet kernel ([`crate::accel::block::packet_rays_avx2`],
 //! bit for bit the single walk's test). A grid a cell references is entered by the packet,
-//! with the rays whose rectangle holds the cell and that have not walked that grid yet (each
-//! ray walks a grid once, as alone: [`Mailbox`]).
+//! with every live ray that has not walked that grid yet (each ray walks a grid once, as
+//! alone: [`Mailbox`]), not only the rays whose rectangle holds the cell: the others would
+//! enter it from cells of their own, each part of the packet setting the grid up again.
 //!
 //! Where the packet does not pay, its rays walk alone: a packet that misses the world grid
 //! stops before any set-up, and rays whose union spans more than [`SPREAD`] cells a ray in a
@@ -550,7 +551,6 @@ impl GridHierarchy {
                             prims,
                             packet,
                             here & near,
-                            here,
                             start,
                             stop,
                             level,
@@ -578,7 +578,7 @@ impl GridHierarchy {
 
     /// Tests the references `start..end` of one cell: its objects for the rays of `here`
     /// (those that meet the box of what the cell holds), then the grids it references with
-    /// the rays of `grids_here` that have not walked them.
+    /// every live ray of the packet that has not walked them.
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn test_cell_packet<P: Primitives, C: Counters, S: HitSink>(
@@ -586,7 +586,6 @@ impl GridHierarchy {
         prims: &P,
         packet: &mut Packet<'_, S>,
         here: u32,
-        grids_here: u32,
         start: usize,
         end: usize,
         level: usize,
@@ -620,8 +619,13 @@ impl GridHierarchy {
                 continue;
             }
             let sub = r & !GRID_TAG;
+            // The packet's other rays enter the grid too, now rather than from cells of their
+            // own (the walk drops those that miss its box): a grid entered by part of a
+            // packet at a time was set up again for each part. Nothing is lost: a ray that
+            // misses the grid's box now misses it with any nearer hit, and a grid's walk keeps
+            // the nearest hit whatever the order ([`crate::accel::Hit::improves`]).
             let mut enter = 0u32;
-            for l in each_lane(grids_here & packet.live) {
+            for l in each_lane(packet.live) {
                 enter |= (packet.mail[l].first_grid_visit(sub) as u32) << l;
             }
             if enter != 0 {
