@@ -417,19 +417,26 @@ impl GridHierarchy {
                 "{count} references: more than one hierarchy can address"
             )));
         }
-        // Pass 2: the cell index and the references, from the pairs sorted by cell.
+        // Pass 2: the cell index and the references, from the pairs sorted by cell. The
+        // counting sort's counters (a grid's cells for each of its lists) may take twice the
+        // memory of the radix sort's second buffer of pairs, no more: a fine grid binned in
+        // many lists on a machine of many threads takes the radix sort.
         let mut uncut = 0;
+        let counters: usize = tasks.iter().map(|(g, _)| grids[*g].cells()).sum();
         let (cells, refs) = match subdivision {
-            None => sort_into_cells(pairs, &tasks, &grids),
-            Some(sub) => {
-                let pairs = Self::subdivide(
-                    &binner,
-                    &mut grids,
-                    radix_sort_high32_parts(pairs),
-                    &mut total_cells,
-                    &sub,
-                    &mut uncut,
-                );
+            None if counters <= 4 * count => sort_into_cells(pairs, &tasks, &grids),
+            _ => {
+                let mut pairs = radix_sort_high32_parts(pairs);
+                if let Some(sub) = subdivision {
+                    pairs = Self::subdivide(
+                        &binner,
+                        &mut grids,
+                        pairs,
+                        &mut total_cells,
+                        &sub,
+                        &mut uncut,
+                    );
+                }
                 let cells = CellIndex::from_sorted(&pairs, total_cells as usize);
                 (cells, pairs.par_iter().map(|&p| p as u32).collect())
             }
