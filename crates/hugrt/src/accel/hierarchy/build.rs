@@ -133,8 +133,8 @@ impl<P: Primitives> Items<'_, P> {
 /// checks, against the sliced build). One pass counts and one places, with counters per grid
 /// (a HUG's many small grids' stay in cache), where the radix sort went over every pair two or
 /// three times and the cell index and the references took two more: the four kitchens' HUG
-/// built 1.23× faster with it on one thread, the meshes' 1.08–1.12×, the uniform grid's
-/// 1.03–1.12×.
+/// built 1.23× faster with it on one thread, the meshes' 1.06–1.13×, the uniform grid's
+/// 1.03–1.13×.
 fn sort_into_cells(
     parts: Vec<Vec<u64>>,
     tasks: &[(usize, std::ops::Range<usize>)],
