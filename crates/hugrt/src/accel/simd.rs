@@ -135,60 +135,109 @@ pub enum Source<'a> {
 ///
 /// # Safety
 /// The processor must support AVX2 ([`available`]), and every `idx[k]` must be a triangle of
-/// `source`, whose gathers take 32-bit offsets: for copies, `9 · tris.len()` below
-/// `i32::MAX`; indexed, `3 · indices.len()` and `3 · vertices.len()` below `i32::MAX` and
-/// every index of `indices` below `vertices.len()`.
+/// `source`; indexed, whose gathers take 32-bit offsets, `3 · indices.len()` and
+/// `3 · vertices.len()` must be below `i32::MAX` and every index of `indices` below
+/// `vertices.len()`.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 pub unsafe fn triangles8(source: Source<'_>, idx: &[u32; 8], ray: &PreparedRay) -> Lanes {
     use std::arch::x86_64::*;
-    // SAFETY: `idx` is eight u32, read unaligned.
-    let idx = unsafe { _mm256_loadu_si256(idx.as_ptr().cast()) };
-    // (Macros rather than closures: the intrinsics must be inlined into this AVX2 function.)
-    macro_rules! plus {
-        ($v:expr, $j:expr) => {
-            _mm256_add_epi32($v, _mm256_set1_epi32($j))
-        };
-    }
-    // `base` and, per vertex of the triangle, each lane's offset of its x in floats.
-    let (base, offs): (*const f32, [__m256i; 3]) = match source {
+    // Each lane's triangle as it is stored, `raw[v][c]`: coordinate `c` of vertex `v`.
+    let raw: [[__m256; 3]; 3] = match source {
         Source::Copied(tris) => {
-            debug_assert!(tris.len() * 9 < i32::MAX as usize);
-            let first = _mm256_mullo_epi32(idx, _mm256_set1_epi32(9));
-            (
-                tris.as_ptr().cast(),
-                [first, plus!(first, 3), plus!(first, 6)],
-            )
+            // The nine floats of each triangle read as two rows of four and one float, and
+            // turned into columns with in-lane shuffles rather than gathered: nine eight-lane
+            // gathers were three quarters of this kernel on AMD Zen 1, where a gather is
+            // microcoded (there the HUG's and the grid's incoherent rays 1.08-1.25x faster;
+            // docs/measurements.md). The
+            // columns hold the gathers' bits.
+            let at: [*const f32; 8] = std::array::from_fn(|k| {
+                debug_assert!((idx[k] as usize) < tris.len());
+                // SAFETY: `idx[k]` is a triangle of `tris` by the contract.
+                unsafe { tris.as_ptr().add(idx[k] as usize).cast::<f32>() }
+            });
+            // Lane `k` of row `j` of the first half holds float `j` (second half: `4 + j`) of
+            // triangle `k`: triangles 0-3 in the low 128 bits, 4-7 in the high.
+            macro_rules! columns {
+                ($first:expr) => {{
+                    macro_rules! row {
+                        ($j:expr) => {
+                            // SAFETY: floats `first..first + 4`, `first ≤ 4`, of a triangle's
+                            // nine.
+                            unsafe {
+                                _mm256_insertf128_ps::<1>(
+                                    _mm256_castps128_ps256(_mm_loadu_ps(at[$j].add($first))),
+                                    _mm_loadu_ps(at[$j + 4].add($first)),
+                                )
+                            }
+                        };
+                    }
+                    let (r0, r1, r2, r3) = (row!(0), row!(1), row!(2), row!(3));
+                    let (lo01, lo23) = (_mm256_unpacklo_ps(r0, r1), _mm256_unpacklo_ps(r2, r3));
+                    let (hi01, hi23) = (_mm256_unpackhi_ps(r0, r1), _mm256_unpackhi_ps(r2, r3));
+                    [
+                        _mm256_shuffle_ps::<0x44>(lo01, lo23),
+                        _mm256_shuffle_ps::<0xEE>(lo01, lo23),
+                        _mm256_shuffle_ps::<0x44>(hi01, hi23),
+                        _mm256_shuffle_ps::<0xEE>(hi01, hi23),
+                    ]
+                }};
+            }
+            let [x0, y0, z0, x1] = columns!(0);
+            let [y1, z1, x2, y2] = columns!(4);
+            // SAFETY: float 8, the last of each triangle.
+            let z2 = unsafe {
+                _mm256_setr_ps(
+                    *at[0].add(8),
+                    *at[1].add(8),
+                    *at[2].add(8),
+                    *at[3].add(8),
+                    *at[4].add(8),
+                    *at[5].add(8),
+                    *at[6].add(8),
+                    *at[7].add(8),
+                )
+            };
+            [[x0, y0, z0], [x1, y1, z1], [x2, y2, z2]]
         }
         Source::Indexed { indices, vertices } => {
+            // SAFETY: `idx` is eight u32, read unaligned.
+            let idx = unsafe { _mm256_loadu_si256(idx.as_ptr().cast()) };
+            // (Macros rather than closures: the intrinsics must be inlined into this AVX2
+            // function.)
+            macro_rules! plus {
+                ($v:expr, $j:expr) => {
+                    _mm256_add_epi32($v, _mm256_set1_epi32($j))
+                };
+            }
             debug_assert!(indices.len() * 3 < i32::MAX as usize);
             debug_assert!(vertices.len() * 3 < i32::MAX as usize);
             let at = _mm256_mullo_epi32(idx, _mm256_set1_epi32(3));
             let ibase = indices.as_ptr().cast::<i32>();
+            let base = vertices.as_ptr().cast::<f32>();
             macro_rules! vertex {
-                ($v:expr) => {
-                    _mm256_mullo_epi32(
+                ($v:expr) => {{
+                    let first = _mm256_mullo_epi32(
                         // SAFETY: lane `k` reads index `3·idx[k] + v`, `v < 3`, of a live
                         // triangle's indices, in bounds by the contract.
                         unsafe { _mm256_i32gather_epi32::<4>(ibase, plus!(at, $v)) },
                         _mm256_set1_epi32(3),
-                    )
-                };
+                    );
+                    // SAFETY: lane `k` reads float `3·indices[idx[k]][v] + c`, `c < 3`, in
+                    // bounds by the contract (a vertex the mesh's indices name). Gathered:
+                    // a row of four from a vertex could read past the last one.
+                    unsafe {
+                        [
+                            _mm256_i32gather_ps::<4>(base, first),
+                            _mm256_i32gather_ps::<4>(base, plus!(first, 1)),
+                            _mm256_i32gather_ps::<4>(base, plus!(first, 2)),
+                        ]
+                    }
+                }};
             }
-            (
-                vertices.as_ptr().cast(),
-                [vertex!(0), vertex!(1), vertex!(2)],
-            )
+            [vertex!(0), vertex!(1), vertex!(2)]
         }
     };
-    macro_rules! load {
-        ($v:expr, $c:expr) => {
-            // SAFETY: lane `k` reads coordinate `c < 3` of vertex `v` of triangle `idx[k]`:
-            // in a copy, float `9·idx[k] + 3v + c`; indexed, float `3·indices[idx[k]][v] + c`;
-            // in bounds by the contract either way.
-            unsafe { _mm256_i32gather_ps::<4>(base, plus!(offs[$v], $c)) }
-        };
-    }
     macro_rules! s {
         ($x:expr) => {
             _mm256_set1_ps($x)
@@ -211,9 +260,9 @@ pub unsafe fn triangles8(source: Source<'_>, idx: &[u32; 8], ray: &PreparedRay) 
     macro_rules! vertex {
         ($v:expr) => {
             [
-                _mm256_sub_ps(load!($v, 0), s!(o.x)),
-                _mm256_sub_ps(load!($v, 1), s!(o.y)),
-                _mm256_sub_ps(load!($v, 2), s!(o.z)),
+                _mm256_sub_ps(raw[$v][0], s!(o.x)),
+                _mm256_sub_ps(raw[$v][1], s!(o.y)),
+                _mm256_sub_ps(raw[$v][2], s!(o.z)),
             ]
         };
     }

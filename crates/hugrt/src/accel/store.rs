@@ -447,10 +447,11 @@ impl PrimStore {
         false
     }
 
-    /// Whether the eight-lane kernel's 32-bit gather offsets reach every triangle.
+    /// Whether the eight-lane kernel's 32-bit gather offsets reach every triangle (an indexed
+    /// mesh's: a copy's triangles are read through pointers).
     pub(crate) fn simd_fits(&self) -> bool {
         match &self.vertices {
-            None => self.tris.len() * 9 < i32::MAX as usize,
+            None => true,
             Some(v) => {
                 self.tri_indices.len() * 3 < i32::MAX as usize && v.len() * 3 < i32::MAX as usize
             }

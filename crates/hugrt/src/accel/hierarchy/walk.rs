@@ -310,9 +310,10 @@ impl GridHierarchy {
                     for b in n..8 {
                         batch[b] = batch[0];
                     }
-                    // SAFETY: `simd` is set only when AVX2 is present and `9·len` fits an
-                    // i32 (`build`); every batched index is a triangle's (below
-                    // `triangles.len()`, by the partition), the padding repeats one of them.
+                    // SAFETY: `simd` is set only when AVX2 is present and the store's offsets
+                    // fit (`build`, `PrimStore::simd_fits`); every batched index is a
+                    // triangle's (below `triangles`, by the partition), the padding repeats
+                    // one of them.
                     if unsafe {
                         self.store.offer_triangles8::<P, C, S>(
                             prims, &batch, n, ray, tmin, sink, counters, level,
