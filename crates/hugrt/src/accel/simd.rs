@@ -108,11 +108,16 @@ pub(crate) fn avx512_available() -> bool {
     }
 }
 
-/// Whether the running processor has what [`triangles8`] needs.
+/// Whether the running processor has what [`triangles8`] needs, and what the grids' single
+/// walk is compiled for beside it (POPCNT, BMI1 and LZCNT, which every processor with AVX2
+/// has).
 pub fn available() -> bool {
     #[cfg(target_arch = "x86_64")]
     {
         std::arch::is_x86_feature_detected!("avx2")
+            && std::arch::is_x86_feature_detected!("popcnt")
+            && std::arch::is_x86_feature_detected!("bmi1")
+            && std::arch::is_x86_feature_detected!("lzcnt")
     }
     #[cfg(not(target_arch = "x86_64"))]
     {

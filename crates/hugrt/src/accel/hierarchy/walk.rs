@@ -92,7 +92,8 @@ impl GridHierarchy {
     /// Walks grid `g` along `ray` from `tmin`, offering hits to `sink`; the grid's
     /// `GridPlan::level` is where the counters count. Returns `true` when the sink stops the
     /// whole query. The ray must be traceable ([`crate::geometry::Ray::is_traceable`]).
-    /// Compiled for AVX-512 where the packet walk is ([`crate::accel::Simd`]).
+    /// Compiled for AVX-512 where the packet walk is ([`crate::accel::Simd`]), for AVX2 where
+    /// the cells test their triangles eight at a time.
     #[allow(clippy::too_many_arguments)]
     pub fn walk<P: Primitives, C: Counters, S: HitSink>(
         &self,
@@ -110,6 +111,33 @@ impl GridHierarchy {
             // function's attribute enables (`build`, `simd::avx512_available`).
             return unsafe { self.walk_avx512(g, prims, ray, tmin, sink, mail, counters) };
         }
+        #[cfg(target_arch = "x86_64")]
+        if self.simd {
+            // SAFETY: `simd` is set only where the processor has AVX2 (`build`), and
+            // `simd::available` asks for POPCNT, BMI1 and LZCNT with it.
+            return unsafe { self.walk_avx2(g, prims, ray, tmin, sink, mail, counters) };
+        }
+        self.walk_grid(g, prims, ray, tmin, sink, mail, counters)
+    }
+
+    /// [`Self::walk_grid`] compiled for AVX2, with POPCNT for the occupied cells' ranks:
+    /// where AVX-512 is absent.
+    ///
+    /// # Safety
+    /// The processor must support AVX2, POPCNT, BMI1 and LZCNT.
+    #[cfg(target_arch = "x86_64")]
+    #[allow(clippy::too_many_arguments)]
+    #[target_feature(enable = "avx2,popcnt,bmi1,lzcnt")]
+    unsafe fn walk_avx2<P: Primitives, C: Counters, S: HitSink>(
+        &self,
+        g: u32,
+        prims: &P,
+        ray: &PreparedRay,
+        tmin: f32,
+        sink: &mut S,
+        mail: &mut Mailbox,
+        counters: &mut C,
+    ) -> bool {
         self.walk_grid(g, prims, ray, tmin, sink, mail, counters)
     }
 
