@@ -102,6 +102,77 @@ fn camera_and_light_rays_in_the_orders_packets_take() {
     }
 }
 
+/// A camera's rays with rays that cannot be walked in a packet among them (no direction, a NaN,
+/// an origin far outside the scene, subnormal direction components): with `auto` the group is
+/// judged coherent on the rays the packet walks, and every ray still gets its answer alone,
+/// closest and any hit.
+#[test]
+fn camera_groups_with_rays_that_walk_alone() {
+    use hugrt::accel::{AnyAccel, NoCounters, Packets};
+    use hugrt::geometry::{Ray, Vec3};
+    let scene = clustered_soup(31, 500);
+    let b = scene.bounds();
+    let (c, size) = (b.center(), b.diagonal().max(1e-3));
+    let eye = c + Vec3::new(0.2, -0.3, -1.4) * size;
+    let forward = (c - eye).normalize();
+    let right = forward.cross(Vec3::Y).normalize();
+    let up = right.cross(forward);
+    let (w, h) = (40, 24);
+    let mut rays: Vec<Ray> = (0..w * h)
+        .map(|i| {
+            let (x, y) = ((i % w) as f32 / w as f32, (i / w) as f32 / h as f32);
+            let d = forward + right * (x - 0.5) * 0.6 + up * (0.5 - y) * 0.4;
+            Ray::new(eye, d, 0.0, f32::INFINITY)
+        })
+        .collect();
+    for (k, ray) in rays.iter_mut().enumerate().skip(3).step_by(11) {
+        *ray = match k % 4 {
+            0 => Ray::new(eye, Vec3::ZERO, 0.0, f32::INFINITY),
+            1 => Ray::new(eye, Vec3::new(f32::NAN, 1.0, 0.0), 0.0, f32::INFINITY),
+            2 => Ray::new(c - ray.dir.normalize() * 1e12, ray.dir, 0.0, f32::INFINITY),
+            _ => Ray::new(eye, Vec3::new(ray.dir.x, 1e-41, ray.dir.z), 0.0, 1e30),
+        };
+    }
+    for spec in specs() {
+        let accel = AnyAccel::build(&scene, &spec).unwrap();
+        let alone: Vec<_> = rays
+            .iter()
+            .map(|r| accel.closest_hit(&scene, r, &mut NoCounters))
+            .collect();
+        for packets in [Packets::Auto, Packets::On] {
+            let mut got = vec![None; rays.len()];
+            accel.closest_hits(&scene, &rays, packets, &mut got, &mut NoCounters);
+            assert_eq!(got, alone, "{spec} {packets}");
+            let mut any = vec![None; rays.len()];
+            accel.any_hits(&scene, &rays, packets, &mut any, &mut NoCounters);
+            for (k, (a, want)) in any.iter().zip(&alone).enumerate() {
+                assert_eq!(
+                    a.is_some(),
+                    want.is_some(),
+                    "{spec} {packets}: any-hit of ray {k}"
+                );
+            }
+        }
+    }
+    let hits = alone_hits(&scene, &rays);
+    assert!(
+        hits > rays.len() / 4,
+        "the camera sees the scene: {hits} hits"
+    );
+}
+
+/// How many of `rays` hit `scene`, by brute force.
+fn alone_hits(scene: &hugrt::scene::Scene, rays: &[hugrt::geometry::Ray]) -> usize {
+    let brute = hugrt::accel::AnyAccel::build(scene, "brute").unwrap();
+    rays.iter()
+        .filter(|r| {
+            brute
+                .any_hit(scene, r, &mut hugrt::accel::NoCounters)
+                .is_some()
+        })
+        .count()
+}
+
 #[test]
 fn degenerate_rays_give_no_hit_and_no_hang() {
     use hugrt::accel::{AnyAccel, NoCounters};

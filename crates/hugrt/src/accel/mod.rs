@@ -567,89 +567,90 @@ fn first_hits<A: Accel, P: Primitives, C: Counters, S: HitSink>(
     assert_eq!(out.len(), rays.len(), "one answer per ray");
     const { assert!(A::PACKET_RAYS <= MAX_PACKET && A::PACKET_RAYS > 0) };
     let regroup = A::ORDER_PAYS && packets.may_walk(A::PACKETS_PAY);
-    let walk = |group: &[Ray], answers: &mut [Option<Hit>], counters: &mut C| {
-        first_hits_of_group(accel, prims, group, packets, answers, counters, sink, hit)
+    let walk = |rays: &[Ray], at: &[u32], out: &mut [Option<Hit>], counters: &mut C| {
+        first_hits_of_group(accel, prims, rays, at, packets, out, counters, sink, hit)
     };
     match regroup
         .then(|| order::packet_order(rays, A::PACKET_RAYS))
         .flatten()
     {
         None => {
+            const IN_ORDER: [u32; MAX_PACKET] = {
+                let mut at = [0; MAX_PACKET];
+                let mut k = 0;
+                while k < MAX_PACKET {
+                    at[k] = k as u32;
+                    k += 1;
+                }
+                at
+            };
             for (group, answers) in rays
                 .chunks(A::PACKET_RAYS)
                 .zip(out.chunks_mut(A::PACKET_RAYS))
             {
-                walk(group, answers, counters);
+                walk(group, &IN_ORDER[..group.len()], answers, counters);
             }
         }
         Some(order) => {
-            let mut group = [rays[0]; MAX_PACKET];
-            let mut answers = [None; MAX_PACKET];
             for at in order.chunks(A::PACKET_RAYS) {
-                for (g, &i) in group.iter_mut().zip(at) {
-                    *g = rays[i as usize];
-                }
-                walk(&group[..at.len()], &mut answers[..at.len()], counters);
-                for (a, &i) in answers.iter().zip(at) {
-                    out[i as usize] = *a;
-                }
+                walk(rays, at, out, counters);
             }
         }
     }
 }
 
-/// [`first_hits`] of one group of at most [`Accel::PACKET_RAYS`] rays, `answers[i]` that of
-/// `group[i]`: inlined into both of its callers there (as a closure called twice, it was not,
-/// and the bvh's camera rays were 1.2× slower).
+/// [`first_hits`] of one group of at most [`Accel::PACKET_RAYS`] rays, `rays[i]` for each `i`
+/// of `at`, whose answers go to `out[i]`: the rays are read and answered in place rather than
+/// copied into a group and back. Whether the group is walked together is judged on the rays
+/// the packet would walk (traceable and near). Inlined into both of its callers there (as a
+/// closure called twice, it was not, and the bvh's camera rays were 1.2× slower).
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn first_hits_of_group<A: Accel, P: Primitives, C: Counters, S: HitSink>(
     accel: &A,
     prims: &P,
-    group: &[Ray],
+    rays: &[Ray],
+    at: &[u32],
     packets: Packets,
-    answers: &mut [Option<Hit>],
+    out: &mut [Option<Hit>],
     counters: &mut C,
     sink: impl Fn(f32) -> S + Copy,
     hit: impl Fn(&S) -> Option<Hit> + Copy,
 ) {
-    let alone = |ray: &Ray, counters: &mut C| {
-        if !ray.is_traceable() {
-            return None;
-        }
-        let ray = &ray.without_subnormal_direction();
-        if !accel.reach().is_near(ray) {
-            return far_first_hit(accel, prims, ray, counters, sink, hit);
-        }
+    // A traceable, near ray (subnormal direction components flushed) alone.
+    let near_alone = |ray: &Ray, counters: &mut C| {
         let mut s = sink(ray.tmax);
         accel.query(prims, ray, &mut s, counters);
         hit(&s)
     };
-    if !packets.walk_together(group, A::PACKETS_PAY) {
-        for (ray, answer) in group.iter().zip(answers) {
-            *answer = alone(ray, counters);
-        }
-        return;
-    }
-    let mut walked = [group[0]; MAX_PACKET];
-    let mut lane_of = [0usize; MAX_PACKET];
+    let mut walked = [Ray::new(Vec3::ZERO, Vec3::X, 0.0, 0.0); MAX_PACKET];
+    let mut lane_of = [0u32; MAX_PACKET];
     let mut n = 0;
-    for (k, ray) in group.iter().enumerate() {
-        if ray.is_traceable() {
+    for &i in at {
+        let ray = &rays[i as usize];
+        out[i as usize] = if !ray.is_traceable() {
+            None
+        } else {
             let r = ray.without_subnormal_direction();
             if accel.reach().is_near(&r) {
                 walked[n] = r;
-                lane_of[n] = k;
+                lane_of[n] = i;
                 n += 1;
                 continue;
             }
+            far_first_hit(accel, prims, &r, counters, sink, hit)
+        };
+    }
+    if !packets.walk_together(&walked[..n], A::PACKETS_PAY) {
+        for (ray, &i) in walked[..n].iter().zip(&lane_of) {
+            out[i as usize] = near_alone(ray, counters);
         }
-        answers[k] = alone(ray, counters);
+        return;
     }
     let mut sinks: [S; MAX_PACKET] = std::array::from_fn(|l| sink(walked[l].tmax));
     accel.query_packet(prims, &walked[..n], &mut sinks[..n], counters);
-    for l in 0..n {
-        answers[lane_of[l]] = hit(&sinks[l]);
+    for (s, &i) in sinks[..n].iter().zip(&lane_of) {
+        out[i as usize] = hit(s);
     }
 }
 
