@@ -35,7 +35,7 @@
 //! may not) is walked ray by ray.
 
 use super::cells::BLOCK;
-use super::{GRID_TAG, GridHierarchy, NO_FRAME};
+use super::{Frame, GRID_TAG, GridHierarchy, NO_FRAME};
 use crate::accel::block::{Block, BlockRay, BlockRays, LANES, Lanes as Lanes8};
 use crate::accel::packet::{MAX_PACKET, PACKET, each_lane};
 use crate::accel::{Counters, HitSink, Mailbox, Primitives};
@@ -130,10 +130,63 @@ fn max_of(x: &Lanes) -> f32 {
     reduce(x, greater)
 }
 
+/// A packet's rays lane by lane, axis by axis (`o[a][l]` is ray `l`'s origin along axis `a`),
+/// in the world's frame or a grid's: the rows the slice walk reads, made once per packet for
+/// every grid without a frame of its own rather than once per grid (a grid of the city's
+/// camera packets is walked for 2.5 slices, and its set-up was most of the walk).
+pub(super) struct RayLanes {
+    o: [Lanes; 3],
+    d: [Lanes; 3],
+    /// The inverse directions as the single walk's slab test takes them (`Vec3::ONE / d`):
+    /// the prepared rays' own in the world's frame.
+    inv: [Lanes; 3],
+}
+
+impl RayLanes {
+    /// The rays of `rays` in `frame` (the world's where `None`).
+    fn new(rays: &[PreparedRay; GRID_PACKET], frame: Option<&Frame>) -> RayLanes {
+        let mut lanes = RayLanes {
+            o: [[0.0; GRID_PACKET]; 3],
+            d: [[0.0; GRID_PACKET]; 3],
+            inv: [[0.0; GRID_PACKET]; 3],
+        };
+        for (l, r) in rays.iter().enumerate() {
+            let (o, d, inv) = match frame {
+                None => (r.ray.origin, r.ray.dir, r.inv_dir),
+                Some(f) => {
+                    let d = f.dir(r.ray.dir);
+                    (f.point(r.ray.origin), d, Vec3::ONE / d)
+                }
+            };
+            for a in 0..3 {
+                (lanes.o[a][l], lanes.d[a][l], lanes.inv[a][l]) = (o[a], d[a], inv[a]);
+            }
+        }
+        lanes
+    }
+
+    #[inline(always)]
+    fn origin(&self, l: usize) -> Vec3 {
+        Vec3::new(self.o[0][l], self.o[1][l], self.o[2][l])
+    }
+
+    #[inline(always)]
+    fn dir(&self, l: usize) -> Vec3 {
+        Vec3::new(self.d[0][l], self.d[1][l], self.d[2][l])
+    }
+
+    #[inline(always)]
+    fn inv_dir(&self, l: usize) -> Vec3 {
+        Vec3::new(self.inv[0][l], self.inv[1][l], self.inv[2][l])
+    }
+}
+
 /// What a packet carries from grid to grid: its prepared rays and, per ray, its sink, its
 /// mailbox and whether its sink has stopped the walk.
 pub(super) struct Packet<'a, S> {
     rays: &'a [PreparedRay; GRID_PACKET],
+    /// The rays lane by lane, as a grid without a frame of its own reads them.
+    lanes: &'a RayLanes,
     /// The rays as the packet triangle kernel reads them, by group of [`PACKET`].
     block_rays: &'a [BlockRays; GROUPS],
     sinks: &'a mut [S],
@@ -176,8 +229,10 @@ impl GridHierarchy {
                 BlockRay::new(&prepared[g * PACKET + l])
             }))
         });
+        let lanes = RayLanes::new(&prepared, None);
         let mut packet = Packet {
             rays: &prepared,
+            lanes: &lanes,
             block_rays: &block_rays,
             sinks: &mut sinks[..n],
             mail: &mut mail,
@@ -268,70 +323,66 @@ impl GridHierarchy {
         if mask == 0 {
             return;
         }
-        // Each ray in the grid's frame; lanes outside `mask` repeat the first ray of it.
+        // The rays in the grid's frame, lane by lane: the packet's own where the grid has no
+        // frame. Lanes outside `mask` hold other rays of the packet (finite, traceable), whose
+        // empty segments keep them out of every rectangle, union and cell below.
         let first = mask.trailing_zeros() as usize;
-        let frame = (h.frame != NO_FRAME).then(|| &self.frames[h.frame as usize]);
-        let in_frame = |l: usize| {
-            let l = if mask >> l & 1 != 0 { l } else { first };
-            let r = &packet.rays[l].ray;
-            match frame {
-                None => (r.origin, r.dir),
-                Some(f) => (f.point(r.origin), f.dir(r.dir)),
+        let turned;
+        let lanes: &RayLanes = match h.frame {
+            NO_FRAME => packet.lanes,
+            f => {
+                turned = RayLanes::new(packet.rays, Some(&self.frames[f as usize]));
+                &turned
             }
         };
-        let od: [(Vec3, Vec3); GRID_PACKET] = std::array::from_fn(in_frame);
-        // Each ray's inverse direction in the grid's frame, as the single walk's slab test
-        // takes it (`Vec3::ONE / d`): the prepared ray's own where the grid has no frame,
-        // which spares a grid's set-up 96 of its divisions.
-        let inv: [Vec3; GRID_PACKET] = std::array::from_fn(|l| match frame {
-            None => packet.rays[if mask >> l & 1 != 0 { l } else { first }].inv_dir,
-            Some(_) => Vec3::ONE / od[l].1,
-        });
-        let d0 = od[first].1;
+        let d0 = lanes.dir(first);
         let k = d0.abs().max_position();
         let octant = d0.is_negative_bitmask();
-        let agree = od
-            .iter()
-            .all(|(_, d)| d.is_negative_bitmask() == octant && d[k] != 0.0);
+        let agree = each_lane(mask).all(|l| {
+            let d = lanes.dir(l);
+            d.is_negative_bitmask() == octant && d[k] != 0.0
+        });
         if !agree || mask.count_ones() == 1 {
             self.walk_alone(g, prims, packet, mask, counters);
             return;
         }
         let (u, v) = ((k + 1) % 3, (k + 2) % 3);
-        let lanes = |f: &dyn Fn(usize) -> f32| -> Lanes { std::array::from_fn(f) };
-        let ok = lanes(&|l| od[l].0[k]);
-        let ou = lanes(&|l| od[l].0[u]);
-        let ov = lanes(&|l| od[l].0[v]);
-        let dk = lanes(&|l| od[l].1[k]);
+        let row = |f: &dyn Fn(usize) -> f32| -> Lanes { std::array::from_fn(f) };
+        let (ok, ou, ov, dk) = (&lanes.o[k], &lanes.o[u], &lanes.o[v], &lanes.d[k]);
         // For the boxes of what cells hold (`bounds`); a grid in a frame of its own keeps
         // whole cells, nothing to skip.
         let cull = h.frame == NO_FRAME;
-        let box_o = [0, 1, 2].map(|a| lanes(&|l| od[l].0[a]));
-        let box_inv = [0, 1, 2].map(|a| lanes(&|l| inv[l][a]));
         // The slopes by the inverse rather than a division (a rounding more, covered by
         // [`WIDEN`]: the rectangles' ends move by an ulp of the ray's travel along the axis).
-        let su = lanes(&|l| od[l].1[u] * inv[l][k]);
-        let sv = lanes(&|l| od[l].1[v] * inv[l][k]);
+        let su = row(&|l| lanes.d[u][l] * lanes.inv[k][l]);
+        let sv = row(&|l| lanes.d[v][l] * lanes.inv[k][l]);
         // Each ray's interval in the grid, by the single walk's slab test.
         let mut t0 = [0f32; GRID_PACKET];
         let mut t1 = [0f32; GRID_PACKET];
         let mut rays = 0u32;
-        for (l, (o, _)) in od.iter().enumerate() {
-            if mask >> l & 1 == 0 {
-                continue;
-            }
+        for l in each_lane(mask) {
             counters.box_test(level);
-            (t0[l], t1[l]) =
-                h.interval(*o, inv[l], packet.rays[l].ray.tmin, packet.sinks[l].tmax());
+            (t0[l], t1[l]) = h.interval(
+                lanes.origin(l),
+                lanes.inv_dir(l),
+                packet.rays[l].ray.tmin,
+                packet.sinks[l].tmax(),
+            );
             rays |= ((t0[l] <= t1[l]) as u32) << l;
         }
         if rays == 0 {
             return;
         }
         let magnitude = h.min.abs().max(h.max.abs()).max_element();
-        let widen = lanes(&|l| {
-            let travel = t0[l].abs().max(t1[l].abs()) * od[l].1.abs().max_element();
-            WIDEN * od[l].0.abs().max_element().max(magnitude).max(travel)
+        let widen = row(&|l| {
+            let travel = t0[l].abs().max(t1[l].abs()) * lanes.dir(l).abs().max_element();
+            WIDEN
+                * lanes
+                    .origin(l)
+                    .abs()
+                    .max_element()
+                    .max(magnitude)
+                    .max(travel)
         });
         let forward = d0[k] > 0.0;
         let (min_u, min_v) = (h.min[u], h.min[v]);
@@ -548,7 +599,7 @@ impl GridHierarchy {
                         (cell[k], cell[u], cell[v]) = (slice as i32, fu, fv);
                         let near = if cull {
                             let (lo, hi) = self.bounds.get(h, rank, cell, self.margin);
-                            meets_lanes(lo, hi, &box_o, &box_inv, &t0, &end)
+                            meets_lanes(lo, hi, &lanes.o, &lanes.inv, &t0, &end)
                         } else {
                             u32::MAX
                         };
