@@ -108,6 +108,8 @@ impl Filter {
         if lengths.is_empty() {
             return Vec::new();
         }
+        // SCG97's split: `fraction` of the longest length.
+        let split = |fraction: f32| fraction * lengths.iter().cloned().fold(0.0, f32::max);
         let thresholds: Vec<f32> = match *self {
             Filter::Levels(k) => {
                 // The slice boundaries are order statistics: selection finds each in linear
@@ -125,14 +127,8 @@ impl Filter {
                 }
                 out
             }
-            Filter::Two(fraction) => {
-                let max = lengths.iter().cloned().fold(0.0, f32::max);
-                vec![fraction * max]
-            }
-            Filter::Gap(fraction) => {
-                let max = lengths.iter().cloned().fold(0.0, f32::max);
-                vec![gap_split(lengths, fraction * max)]
-            }
+            Filter::Two(fraction) => vec![split(fraction)],
+            Filter::Gap(fraction) => vec![gap_split(lengths, split(fraction))],
         };
         let mut levels = vec![Level::default(); thresholds.len() + 1];
         for (i, &l) in lengths.iter().enumerate() {
