@@ -352,10 +352,10 @@ impl GridHierarchy {
         // For the boxes of what cells hold (`bounds`); a grid in a frame of its own keeps
         // whole cells, nothing to skip.
         let cull = h.frame == NO_FRAME;
-        // The slopes by the inverse rather than a division (a rounding more, covered by
-        // [`WIDEN`]: the rectangles' ends move by an ulp of the ray's travel along the axis).
-        let su = row(&|l| lanes.d[u][l] * lanes.inv[k][l]);
-        let sv = row(&|l| lanes.d[v][l] * lanes.inv[k][l]);
+        // The slopes by division, not by the inverse: in a grid's frame a ray's component
+        // along the axis may be subnormal, whose infinite inverse would make a slope NaN.
+        let su = row(&|l| lanes.d[u][l] / lanes.d[k][l]);
+        let sv = row(&|l| lanes.d[v][l] / lanes.d[k][l]);
         // Each ray's interval in the grid, by the single walk's slab test.
         let mut t0 = [0f32; GRID_PACKET];
         let mut t1 = [0f32; GRID_PACKET];
