@@ -120,27 +120,35 @@ pub fn assert_all_agree<P: Primitives, S: AsRef<str>>(prims: &P, specs: &[S], ra
 }
 
 /// Asserts that the batch queries give every ray the answer it gets alone, bit for bit, with
-/// every group of [`PACKET`] rays walked as a packet (`Packets::On`), coherent or not.
+/// every group of [`PACKET`] rays walked as a packet (`Packets::On`), coherent or not, and with
+/// the groups that look coherent walked as packets (`Packets::Auto`, where a group is judged on
+/// the rays it walks: its rays that cannot be walked together are answered alone).
 pub fn assert_packets_agree<P: Primitives>(prims: &P, accel: &AnyAccel, spec: &str, rays: &[Ray]) {
-    let mut got = vec![None; rays.len()];
-    accel.closest_hits(prims, rays, Packets::On, &mut got, &mut NoCounters);
-    let mut any = vec![None; rays.len()];
-    accel.any_hits(prims, rays, Packets::On, &mut any, &mut NoCounters);
-    for (k, ray) in rays.iter().enumerate() {
-        let alone = accel.closest_hit(prims, ray, &mut NoCounters);
-        assert_eq!(
-            got[k],
-            alone,
-            "{spec}: ray {k} {ray:?} in packet {}: alone {alone:?}, in the packet {:?}",
-            k / PACKET,
-            got[k]
-        );
-        assert_eq!(
-            any[k].is_some(),
-            alone.is_some(),
-            "{spec}: any-hit of ray {k} {ray:?} in packet {}",
-            k / PACKET
-        );
+    let alone: Vec<Option<Hit>> = rays
+        .iter()
+        .map(|r| accel.closest_hit(prims, r, &mut NoCounters))
+        .collect();
+    for packets in [Packets::On, Packets::Auto] {
+        let mut got = vec![None; rays.len()];
+        accel.closest_hits(prims, rays, packets, &mut got, &mut NoCounters);
+        let mut any = vec![None; rays.len()];
+        accel.any_hits(prims, rays, packets, &mut any, &mut NoCounters);
+        for (k, (ray, alone)) in rays.iter().zip(&alone).enumerate() {
+            assert_eq!(
+                got[k],
+                *alone,
+                "{spec} ({packets}): ray {k} {ray:?} in packet {}: alone {alone:?}, in the \
+                 packet {:?}",
+                k / PACKET,
+                got[k]
+            );
+            assert_eq!(
+                any[k].is_some(),
+                alone.is_some(),
+                "{spec} ({packets}): any-hit of ray {k} {ray:?} in packet {}",
+                k / PACKET
+            );
+        }
     }
 }
 

@@ -575,20 +575,12 @@ fn first_hits<A: Accel, P: Primitives, C: Counters, S: HitSink>(
         .flatten()
     {
         None => {
-            const IN_ORDER: [u32; MAX_PACKET] = {
-                let mut at = [0; MAX_PACKET];
-                let mut k = 0;
-                while k < MAX_PACKET {
-                    at[k] = k as u32;
-                    k += 1;
-                }
-                at
-            };
+            let in_order: [u32; MAX_PACKET] = std::array::from_fn(|k| k as u32);
             for (group, answers) in rays
                 .chunks(A::PACKET_RAYS)
                 .zip(out.chunks_mut(A::PACKET_RAYS))
             {
-                walk(group, &IN_ORDER[..group.len()], answers, counters);
+                walk(group, &in_order[..group.len()], answers, counters);
             }
         }
         Some(order) => {
