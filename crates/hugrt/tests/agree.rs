@@ -145,6 +145,62 @@ fn camera_groups_with_rays_that_walk_alone() {
     );
 }
 
+/// A camera's rays with their directions scaled down towards the least normal `f32`, and with
+/// one component made tiny: `t` grows as the direction shrinks, and where the crossing's `t`
+/// is past `f32::MAX` it is no hit (a `t` of infinity is not a point on the ray). Brute force
+/// once reported such crossings at `t = ∞` while every structure, whose cells end at finite
+/// `t`, found nothing; and the grids' walks missed hits at finite `t` where a plane's
+/// parameter, counted from the grid's corner, overflowed (`hierarchy::walk`'s `Axis`).
+#[test]
+fn tiny_directions_hit_at_a_finite_t_or_not_at_all() {
+    use hugrt::accel::{AnyAccel, NoCounters};
+    use hugrt::geometry::{Ray, Vec3};
+    for scene in [clustered_soup(41, 400), mixed(42, 120)] {
+        let b = scene.bounds();
+        let (c, size) = (b.center(), b.diagonal().max(1e-3));
+        let eye = c + Vec3::new(0.3, -0.2, -1.5) * size;
+        let forward = (c - eye).normalize();
+        let right = forward.cross(Vec3::Y).normalize();
+        let up = right.cross(forward);
+        let (w, h) = (24, 16);
+        let camera: Vec<Vec3> = (0..w * h)
+            .map(|i| {
+                let (x, y) = ((i % w) as f32 / w as f32, (i / w) as f32 / h as f32);
+                forward + right * (x - 0.5) * 0.5 + up * (0.5 - y) * 0.3
+            })
+            .collect();
+        let brute = AnyAccel::build(&scene, "brute").unwrap();
+        let mut seen = Vec::new();
+        for scale in [1e-30, 1e-35, 3e-37, 2e-38, f32::MIN_POSITIVE] {
+            let rays: Vec<Ray> = camera
+                .iter()
+                .map(|&d| Ray::new(eye, d * scale, 0.0, f32::INFINITY))
+                .collect();
+            assert_all_agree(&scene, &specs(), &rays);
+            let hits: Vec<_> = rays
+                .iter()
+                .filter_map(|r| brute.closest_hit(&scene, r, &mut NoCounters))
+                .collect();
+            assert!(hits.iter().all(|h| h.t.is_finite()), "{scale}: {hits:?}");
+            seen.push(hits.len());
+        }
+        assert!(
+            seen[0] > 0 && seen[seen.len() - 1] == 0,
+            "hits at each scale, the last past f32::MAX: {seen:?}"
+        );
+        // Unit directions with a normal but tiny vertical component.
+        let flat: Vec<Ray> = camera
+            .iter()
+            .enumerate()
+            .map(|(k, &d)| {
+                let y = if k % 2 == 0 { 1e-37 } else { -1e-37 };
+                Ray::new(eye, Vec3::new(d.x, y, d.z), 0.0, f32::INFINITY)
+            })
+            .collect();
+        assert_all_agree(&scene, &specs(), &flat);
+    }
+}
+
 #[test]
 fn degenerate_rays_give_no_hit_and_no_hang() {
     use hugrt::accel::{AnyAccel, NoCounters};

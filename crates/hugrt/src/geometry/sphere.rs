@@ -39,8 +39,10 @@ impl Sphere {
     }
 }
 
-/// The smaller root inside `[tmin, tmax]`, as `f32`.
+/// The smaller root inside `[tmin, tmax]`, as `f32`; a root that rounds past `f32::MAX` is
+/// none, as in [`super::crossing_t`].
 pub(super) fn pick_root(t0: f64, t1: f64, tmin: f32, tmax: f32) -> Option<f32> {
+    let tmax = tmax.min(f32::MAX);
     [t0, t1]
         .into_iter()
         .map(|t| t as f32)

@@ -61,12 +61,16 @@ pub fn intersect_triangle(r: &PreparedRay, v: &[Vec3; 3], tmin: f32, tmax: f32) 
 ///
 /// Every kernel (the scalar test, the bvh's blocks, the grids' eight lanes) calls this one
 /// function for the lanes it finds crossed, so a hit has the same bits whichever finds it.
+///
+/// A crossing whose `t` rounds past `f32::MAX` (a tiny direction far from the plane) is no
+/// hit, even when `tmax` is infinite: `t = ∞` names no point on the ray, and the structures,
+/// whose cells and nodes end at finite `t`, could never reach it.
 #[inline]
 pub fn crossing_t(v: &[Vec3; 3], ray: &Ray, tmin: f32, tmax: f32) -> Option<f32> {
     let [a, b, c] = v.map(|x| x.as_dvec3());
     let n = (b - a).cross(c - a);
     let t = (n.dot(a - ray.origin.as_dvec3()) / n.dot(ray.dir.as_dvec3())) as f32;
-    (t >= tmin && t <= tmax).then_some(t)
+    (t >= tmin && t <= tmax.min(f32::MAX)).then_some(t)
 }
 
 /// Barycentric coordinates `(b0, b1, b2)` of point `p` with respect to triangle `v`, computed in

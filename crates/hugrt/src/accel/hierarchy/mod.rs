@@ -27,7 +27,7 @@
 //! Every box (object or grid) is widened by `margin` before it is binned, and every grid's box
 //! by the same margin. The margin bounds three rounding errors at once, each a few ulps of the
 //! coordinate magnitude `M` (largest absolute coordinate or extent of the root box):
-//! * the DDA's plane distances `base + k·delta`: the true ray at a parameter `t` inside the
+//! * the DDA's plane distances `first + j·delta`: the true ray at a parameter `t` inside the
 //!   interval the walk gives a cell lies within that error of the cell, so it reaches every
 //!   cell the true ray crosses, corners included, up to the margin;
 //! * the stop test `nearest ≤ exit`: a nearer hit just beyond the exit plane lies within the

@@ -15,19 +15,27 @@ use crate::geometry::{PreparedRay, Vec3};
 struct Axis {
     /// Parameter at which the ray meets the next plane ahead.
     next: f32,
-    /// Plane `k` is met at `base + k·delta`: computed afresh at every step rather than
-    /// accumulated, so that rounding does not grow with the length of the walk.
-    base: f32,
+    /// The plane `j` cells beyond the first plane ahead of the entry point is met at
+    /// `first + j·delta`: computed afresh at every step rather than accumulated, so that
+    /// rounding does not grow with the length of the walk.
+    ///
+    /// Counted from the first plane ahead rather than from the grid's `min` plane, whose
+    /// parameter `(min − o)·inv` overflows to ±∞ for a small direction component (10^-36
+    /// against a scene of 10^3) while the planes the ray crosses are well within range:
+    /// `∞ + k·delta` was then `∞ − ∞`, a NaN that no comparison chose, and the walk never
+    /// stepped along the other axes either. From the first plane ahead every term is
+    /// non-negative, so a plane's parameter is ∞ only when it is out of `f32`'s range.
+    first: f32,
     delta: f32,
-    /// Index of the next plane ahead, the step to the one after it, and the index of the
-    /// grid's boundary plane on this side.
-    k: i32,
-    step: i32,
-    boundary: i32,
+    /// How many planes ahead the next one is, and how many lie ahead before the grid's boundary
+    /// plane: small integers, exact as floats, kept as floats so that a step converts nothing.
+    j: f32,
+    last: f32,
     /// Change of the cell index when this plane is crossed.
     jump: isize,
-    /// The cell's coordinate along this axis.
+    /// The cell's coordinate along this axis, and its change when a plane is crossed.
     cell: i32,
+    step: i32,
 }
 
 impl Axis {
@@ -43,33 +51,32 @@ impl Axis {
         cell: i32,
         stride: isize,
     ) -> Axis {
-        let base = (min - o) * inv;
-        let delta = size * inv;
-        let (k, step, boundary) = if d > 0.0 {
-            (cell + 1, 1, res)
+        let (k, step, last) = if d > 0.0 {
+            (cell + 1, 1, res - 1 - cell)
         } else if d < 0.0 {
-            (cell, -1, 0)
+            (cell, -1, cell)
         } else {
             return Axis {
                 next: f32::INFINITY,
-                base,
-                delta,
-                k: 0,
-                step: 0,
-                boundary: 0,
+                first: f32::INFINITY,
+                delta: 0.0,
+                j: 0.0,
+                last: 0.0,
                 jump: 0,
                 cell,
+                step: 0,
             };
         };
+        let first = ((min - o) + k as f32 * size) * inv;
         Axis {
-            next: base + k as f32 * delta,
-            base,
-            delta,
-            k,
-            step,
-            boundary,
+            next: first,
+            first,
+            delta: size * inv.abs(),
+            j: 0.0,
+            last: last as f32,
             jump: step as isize * stride,
             cell,
+            step,
         }
     }
 
@@ -77,13 +84,13 @@ impl Axis {
     /// the grid's boundary.
     #[inline(always)]
     fn cross(&mut self, idx: &mut isize) -> bool {
-        if self.k == self.boundary {
+        if self.j == self.last {
             return false;
         }
         *idx += self.jump;
         self.cell += self.step;
-        self.k += self.step;
-        self.next = self.base + self.k as f32 * self.delta;
+        self.j += 1.0;
+        self.next = self.first + self.j * self.delta;
         true
     }
 }
