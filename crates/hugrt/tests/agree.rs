@@ -201,6 +201,33 @@ fn tiny_directions_hit_at_a_finite_t_or_not_at_all() {
     }
 }
 
+/// Rays at random through random scenes with directions of 10^-38 to 10^-33: every structure,
+/// the turned grids of `hug:pca=true` among them, walks them scaled by a power of two
+/// ([`hugrt::accel::Reach::moved`]). Walked as given, the turned grids' frames gave
+/// components whose inverses overflowed, and the HUG missed hits or found farther ones.
+#[test]
+fn random_rays_with_small_directions() {
+    use hugrt::geometry::Ray;
+    for seed in 0..6u64 {
+        let scene = if seed % 2 == 0 {
+            clustered_soup(seed, 300)
+        } else {
+            mixed(seed, 150)
+        };
+        let b = scene.bounds();
+        let mut r = rng(seed ^ 99);
+        let rays: Vec<Ray> = (0..2_000)
+            .map(|_| {
+                let o = b.min - b.extent() * 0.2 + b.extent() * 1.4 * v3(&mut r, 0.0, 1.0);
+                let target = b.min + b.extent() * v3(&mut r, 0.0, 1.0);
+                let scale = 10f32.powf(r.random_range(-38.0..-33.0));
+                Ray::new(o, (target - o).normalize() * scale, 0.0, f32::INFINITY)
+            })
+            .collect();
+        assert_all_agree(&scene, &specs(), &rays);
+    }
+}
+
 #[test]
 fn degenerate_rays_give_no_hit_and_no_hang() {
     use hugrt::accel::{AnyAccel, NoCounters};

@@ -16,9 +16,8 @@ fn brute_all_hits<P: Primitives>(prims: &P, ray: &Ray) -> Vec<Hit> {
     if !ray.is_traceable() {
         return Vec::new();
     }
-    let ray = &ray.without_subnormal_direction();
     let reach = Reach::of(prims);
-    if !reach.is_near(ray) {
+    if !reach.walks_as_given(ray) {
         let Some(m) = reach.moved(ray) else {
             return Vec::new();
         };
@@ -29,6 +28,7 @@ fn brute_all_hits<P: Primitives>(prims: &P, ray: &Ray) -> Vec<Hit> {
         hits.sort_by(Hit::order);
         return hits;
     }
+    let ray = &ray.without_subnormal_direction();
     let pr = PreparedRay::new(ray);
     let mut hits: Vec<Hit> = (0..prims.len())
         .filter_map(|i| {

@@ -318,8 +318,8 @@ pub trait Accel: Sized + Send + Sync {
         counters: &mut C,
     );
 
-    /// The walk of a packet ([`packet`]): up to [`Accel::PACKET_RAYS`] rays, each traceable, near
-    /// ([`Reach::is_near`]) and without subnormal direction components
+    /// The walk of a packet ([`packet`]): up to [`Accel::PACKET_RAYS`] rays, each traceable,
+    /// walked as given ([`Reach::walks_as_given`]) and without subnormal direction components
     /// ([`Ray::without_subnormal_direction`]), each offering its hits to its own sink as
     /// [`Accel::query`] would. Callers go through [`Accel::closest_hits`] and
     /// [`Accel::any_hits`]. The default walks the rays one at a time; a structure with a packet
@@ -350,10 +350,10 @@ pub trait Accel: Sized + Send + Sync {
         if !ray.is_traceable() {
             return None;
         }
-        let ray = &ray.without_subnormal_direction();
-        if !self.reach().is_near(ray) {
+        if !self.reach().walks_as_given(ray) {
             return far_first_hit(self, prims, ray, counters, Closest::new, Closest::hit);
         }
+        let ray = &ray.without_subnormal_direction();
         let mut sink = Closest::new(ray.tmax);
         self.query(prims, ray, &mut sink, counters);
         sink.hit()
@@ -371,11 +371,10 @@ pub trait Accel: Sized + Send + Sync {
         if !ray.is_traceable() {
             return None;
         }
-        let ray = ray.without_subnormal_direction();
-        let (walked, moved) = if self.reach().is_near(&ray) {
-            (ray, None)
+        let (walked, moved) = if self.reach().walks_as_given(ray) {
+            (ray.without_subnormal_direction(), None)
         } else {
-            let m = self.reach().moved(&ray)?;
+            let m = self.reach().moved(ray)?;
             (m.ray, Some(m))
         };
         let mut sink = Closest::new(walked.tmax);
@@ -400,10 +399,10 @@ pub trait Accel: Sized + Send + Sync {
         if !ray.is_traceable() {
             return None;
         }
-        let ray = &ray.without_subnormal_direction();
-        if !self.reach().is_near(ray) {
+        if !self.reach().walks_as_given(ray) {
             return far_first_hit(self, prims, ray, counters, AnyHit::new, AnyHit::hit);
         }
+        let ray = &ray.without_subnormal_direction();
         let mut sink = AnyHit::new(ray.tmax);
         self.query(prims, ray, &mut sink, counters);
         sink.hit()
@@ -482,8 +481,8 @@ pub trait Accel: Sized + Send + Sync {
         if !ray.is_traceable() {
             return;
         }
-        let ray = &ray.without_subnormal_direction();
-        if self.reach().is_near(ray) {
+        if self.reach().walks_as_given(ray) {
+            let ray = &ray.without_subnormal_direction();
             self.query(prims, ray, &mut EveryHit::new(ray.tmax, f), counters);
         } else if let Some(m) = self.reach().moved(ray) {
             let sink = &mut EveryHit::new(m.ray.tmax, |h| f(m.hit(h)));
@@ -527,7 +526,8 @@ pub struct Walked {
 }
 
 /// [`Accel::closest_hit`] (`Closest::new`, `Closest::hit`) or [`Accel::any_hit`] (the same
-/// of `AnyHit`) for a ray from far away, moved to the scene first ([`Reach`]).
+/// of `AnyHit`) for a ray from far away or with a small direction, moved to the scene or
+/// scaled first ([`Reach::moved`]).
 #[cold]
 #[inline(never)]
 fn far_first_hit<A: Accel, P: Primitives, C: Counters, S: HitSink>(
@@ -594,7 +594,7 @@ fn first_hits<A: Accel, P: Primitives, C: Counters, S: HitSink>(
 /// [`first_hits`] of one group of at most [`Accel::PACKET_RAYS`] rays, `rays[i]` for each `i`
 /// of `at`, whose answers go to `out[i]`: the rays are read and answered in place rather than
 /// copied into a group and back. Whether the group is walked together is judged on the rays
-/// the packet would walk (traceable and near). Inlined into both of its callers there (as a
+/// the packet would walk (traceable and walked as given). Inlined into both of its callers there (as a
 /// closure called twice, it was not, and the bvh's camera rays were 1.2× slower).
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
@@ -609,7 +609,7 @@ fn first_hits_of_group<A: Accel, P: Primitives, C: Counters, S: HitSink>(
     sink: impl Fn(f32) -> S + Copy,
     hit: impl Fn(&S) -> Option<Hit> + Copy,
 ) {
-    // A traceable, near ray (subnormal direction components flushed) alone.
+    // A traceable ray walked as given (subnormal direction components flushed) alone.
     let near_alone = |ray: &Ray, counters: &mut C| {
         let mut s = sink(ray.tmax);
         accel.query(prims, ray, &mut s, counters);
@@ -623,14 +623,13 @@ fn first_hits_of_group<A: Accel, P: Primitives, C: Counters, S: HitSink>(
         out[i as usize] = if !ray.is_traceable() {
             None
         } else {
-            let r = ray.without_subnormal_direction();
-            if accel.reach().is_near(&r) {
-                walked[n] = r;
+            if accel.reach().walks_as_given(ray) {
+                walked[n] = ray.without_subnormal_direction();
                 lane_of[n] = i;
                 n += 1;
                 continue;
             }
-            far_first_hit(accel, prims, &r, counters, sink, hit)
+            far_first_hit(accel, prims, ray, counters, sink, hit)
         };
     }
     if !packets.walk_together(&walked[..n], A::PACKETS_PAY) {

@@ -17,6 +17,10 @@
 //! are more accurate than the far origin's single precision allowed. A hit's `t` is mapped
 //! back to the caller's ray, rounded once and clamped to its `[tmin, tmax]`.
 //!
+//! A ray whose direction is small ([`Ray::has_small_direction`], below 2⁻⁶³) is walked the
+//! same way, its direction first scaled by a power of two ([`scaled`]): its hits lie at `t`
+//! so large that the walks' plane and box distances left `f32`'s range.
+//!
 //! The move is exact to within the margin for origins up to about 2⁸⁰ times the scene's
 //! magnitude away (each step's new origin is off the ray by an ulp of its own distance from
 //! the scene, in double precision); with origins bounded by [`crate::geometry::Ray::MAX_COMPONENT`]
@@ -55,8 +59,10 @@ pub struct Reach {
 #[derive(Clone, Copy, Debug)]
 pub struct Moved {
     pub ray: Ray,
-    /// The caller's `t` of the new origin.
+    /// The walked ray's `t` of the new origin.
     shift: f64,
+    /// The caller's `t` per unit of the walked ray's `t`: a power of two ([`scaled`]).
+    scale: f64,
     /// The caller's interval.
     tmin: f32,
     tmax: f32,
@@ -66,7 +72,7 @@ impl Moved {
     /// A hit of the walked ray as a hit of the caller's.
     pub fn hit(&self, h: Hit) -> Hit {
         Hit {
-            t: ((self.shift + h.t as f64) as f32).clamp(self.tmin, self.tmax),
+            t: (((self.shift + h.t as f64) * self.scale) as f32).clamp(self.tmin, self.tmax),
             prim: h.prim,
         }
     }
@@ -101,18 +107,25 @@ impl Reach {
         &self.bounds
     }
 
-    /// Whether `ray` is walked as given. The queries test this alone on the hot path and
-    /// leave the move to a separate, cold function: building a moved-or-not ray on the stack
+    /// Whether a traceable `ray` is walked as given (its subnormal direction components
+    /// flushed): its origin is near the primitives, and its direction not small
+    /// ([`Ray::has_small_direction`]). The queries test this alone on the hot path and leave
+    /// [`Reach::moved`] to a separate, cold function: building a moved-or-not ray on the stack
     /// for every query cost the bvh 30% of its camera rays' speed (stores and loads of
     /// different widths that the CPU cannot forward).
     #[inline(always)]
-    pub fn is_near(&self, ray: &Ray) -> bool {
-        ray.origin.abs().max_element() <= self.far
+    pub fn walks_as_given(&self, ray: &Ray) -> bool {
+        (ray.origin.abs().max_element() <= self.far) & !ray.has_small_direction()
     }
 
-    /// The ray to walk for a ray that is not near (traceable, subnormal direction components
-    /// flushed); `None` when it cannot meet the scene's box in its interval.
+    /// The ray to walk for a traceable ray that is not walked as given
+    /// ([`Reach::walks_as_given`]): a small direction scaled by a power of two, exactly,
+    /// its subnormal components then flushed ([`Ray::without_subnormal_direction`]), and a far
+    /// origin moved;
+    /// `None` when it cannot meet the scene's box in its interval.
     pub fn moved(&self, ray: &Ray) -> Option<Moved> {
+        let (caller, (ray, scale)) = (ray, scaled(ray));
+        let ray = &ray;
         let d = ray.dir.as_dvec3();
         let (lo, hi) = (self.bounds.min.as_dvec3(), self.bounds.max.as_dvec3());
         let (tmin, tmax) = (ray.tmin as f64, ray.tmax as f64);
@@ -153,10 +166,37 @@ impl Reach {
                 tmax: (tmax - shift) as f32,
             },
             shift,
-            tmin: ray.tmin,
-            tmax: ray.tmax,
+            scale,
+            tmin: caller.tmin,
+            tmax: caller.tmax,
         })
     }
+}
+
+/// `ray` with a small direction ([`Ray::has_small_direction`]) scaled by the power of two `s`
+/// that brings its largest component into `[1, 2)`, its interval divided by `s` (`tmax` first
+/// bounded by `f32::MAX`, so that no hit maps back past it), and its subnormal components then
+/// flushed; with `s`, the factor from the scaled ray's `t` to the caller's. Scaling by a power
+/// of two is exact, so the scaled ray is the caller's ray, and a hit's `t` on it maps back to
+/// the `t` the caller's ray would give, bit for bit, unless it falls below the least normal
+/// `f32` (a hit within 10^-19 of an origin that is on the surface). Components that were
+/// subnormal become normal and keep their say in where the ray goes. Any other ray comes back
+/// flushed, with `s = 1`.
+fn scaled(ray: &Ray) -> (Ray, f64) {
+    if !ray.has_small_direction() {
+        return (ray.without_subnormal_direction(), 1.0);
+    }
+    let largest = ray.dir.abs().max_element() as f64;
+    // `largest` is normal as an `f64`: `s` is 2 to minus its exponent.
+    let exponent = ((largest.to_bits() >> 52) & 0x7ff) as i64 - 1023;
+    let s = f64::from_bits(((1023 - exponent) as u64) << 52);
+    let scaled = Ray {
+        origin: ray.origin,
+        dir: (ray.dir.as_dvec3() * s).as_vec3(),
+        tmin: (ray.tmin as f64 / s) as f32,
+        tmax: (ray.tmax.min(f32::MAX) as f64 / s) as f32,
+    };
+    (scaled.without_subnormal_direction(), s)
 }
 
 #[cfg(test)]
@@ -176,8 +216,8 @@ mod tests {
     fn near_rays_are_walked_as_given() {
         let reach = Reach::of(&unit_cube());
         let ray = Ray::new(Vec3::splat(15.0), -Vec3::ONE, -3.0, 40.0);
-        assert!(reach.is_near(&ray));
-        assert!(!reach.is_near(&Ray::new(Vec3::splat(17.0), -Vec3::ONE, -3.0, 40.0)));
+        assert!(reach.walks_as_given(&ray));
+        assert!(!reach.walks_as_given(&Ray::new(Vec3::splat(17.0), -Vec3::ONE, -3.0, 40.0)));
     }
 
     /// A ray from 10¹⁸ away is moved to just before the box, on the ray to within an ulp of the
@@ -201,6 +241,35 @@ mod tests {
         assert_eq!(a.hit(Hit { t: walked, prim: 1 }).t, 1.0);
         // Hits map into the caller's interval, even where rounding would leave it.
         assert_eq!(a.hit(Hit { t: 5.0, prim: 1 }).t, 2.0);
+    }
+
+    /// A direction of subnormal components is scaled, exactly, to one whose largest component
+    /// is in `[1, 2)`, keeping the components that a flush would have zeroed; the interval
+    /// is scaled the other way, with an infinite `tmax` bounded first; a hit maps back exactly.
+    #[test]
+    fn small_directions_are_scaled_by_a_power_of_two() {
+        let reach = Reach::of(&unit_cube());
+        let tiny = 2.0f32.powi(-140);
+        let ray = Ray::new(
+            Vec3::new(0.25, 0.5, 2.0),
+            Vec3::new(0.5, 0.25, -1.5) * tiny,
+            tiny,
+            f32::INFINITY,
+        );
+        assert!(ray.has_small_direction() && !reach.walks_as_given(&ray));
+        let a = reach.moved(&ray).unwrap();
+        assert_eq!(a.ray.origin, ray.origin);
+        assert_eq!(a.ray.dir, Vec3::new(0.5, 0.25, -1.5));
+        // 2^-140 / 2^140 is below the least subnormal `f32`.
+        assert_eq!(a.ray.tmin, 0.0);
+        assert_eq!(a.ray.tmax, (f32::MAX as f64 / 2f64.powi(140)) as f32);
+        let t = 0.75 * 2.0f32.powi(-20);
+        assert_eq!(a.hit(Hit { t, prim: 0 }).t, 0.75 * 2.0f32.powi(120));
+        // A direction of exactly the bound is not small: walked as given.
+        let normal = Ray::new(Vec3::ZERO, Vec3::X * Ray::SMALL_DIRECTION, 0.0, 1.0);
+        assert!(!normal.has_small_direction() && reach.walks_as_given(&normal));
+        let below = Ray::new(Vec3::ZERO, Vec3::X * Ray::SMALL_DIRECTION * 0.75, 0.0, 1.0);
+        assert!(below.has_small_direction());
     }
 
     #[test]

@@ -56,6 +56,25 @@ impl Ray {
     /// renderer meets.
     pub const MAX_COMPONENT: f32 = 18_446_744_073_709_551_616.0;
 
+    /// The least that a direction's largest component may be for a query to walk the ray as
+    /// given: 2^-63, about 1.1·10^-19. The `t` of a hit grows as the direction shrinks, and
+    /// from directions near 10^-35 the walks' plane and box distances reach `f32`'s range
+    /// while the hits do not: a turned grid's frame (`hug:pca=true`) then gave components whose
+    /// inverses overflowed, and its walk missed hits brute force found. A smaller direction is
+    /// first scaled by a power of two, exactly, and its hits scaled back
+    /// ([`crate::accel::Reach::moved`]).
+    pub const SMALL_DIRECTION: f32 = f32::from_bits(64 << 23);
+
+    /// Whether every direction component is below [`Ray::SMALL_DIRECTION`] in magnitude.
+    #[inline(always)]
+    pub fn has_small_direction(&self) -> bool {
+        // The bound's bits are a power of two (2^29), so the components all lie below it
+        // exactly when the union of their bits does.
+        let d = self.dir;
+        (magnitude_bits(d.x) | magnitude_bits(d.y) | magnitude_bits(d.z))
+            < Self::SMALL_DIRECTION.to_bits()
+    }
+
     /// The ray with each subnormal direction component (below 2^-126 in magnitude) made a
     /// zero of its sign, as every query takes it. Such a component's inverse overflows to
     /// infinity while the component itself is not zero, a combination the grid walks did not
