@@ -594,8 +594,8 @@ fn first_hits<A: Accel, P: Primitives, C: Counters, S: HitSink>(
 /// [`first_hits`] of one group of at most [`Accel::PACKET_RAYS`] rays, `rays[i]` for each `i`
 /// of `at`, whose answers go to `out[i]`: the rays are read and answered in place rather than
 /// copied into a group and back. Whether the group is walked together is judged on the rays
-/// the packet would walk (traceable and walked as given). Inlined into both of its callers there (as a
-/// closure called twice, it was not, and the bvh's camera rays were 1.2× slower).
+/// the packet would walk (traceable and walked as given). Inlined into both of its callers
+/// there (as a closure called twice, it was not, and the bvh's camera rays were 1.2× slower).
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn first_hits_of_group<A: Accel, P: Primitives, C: Counters, S: HitSink>(

@@ -121,8 +121,7 @@ impl Reach {
     /// The ray to walk for a traceable ray that is not walked as given
     /// ([`Reach::walks_as_given`]): a small direction scaled by a power of two, exactly,
     /// its subnormal components then flushed ([`Ray::without_subnormal_direction`]), and a far
-    /// origin moved;
-    /// `None` when it cannot meet the scene's box in its interval.
+    /// origin moved; `None` when it cannot meet the scene's box in its interval.
     pub fn moved(&self, ray: &Ray) -> Option<Moved> {
         let (caller, (ray, scale)) = (ray, scaled(ray));
         let ray = &ray;
