@@ -60,6 +60,30 @@ fn a_scene_large_enough_to_flatten_in_parallel() {
     check_all(&s, 13, 2_000);
 }
 
+/// A camera `at` the given offset from the scene's centre (in scene sizes), looking at the
+/// centre: its eye and the unnormalised directions of a `w × h` image spanning `spread`.
+fn camera(
+    scene: &hugrt::scene::Scene,
+    at: hugrt::geometry::Vec3,
+    (w, h): (usize, usize),
+    spread: (f32, f32),
+) -> (hugrt::geometry::Vec3, Vec<hugrt::geometry::Vec3>) {
+    use hugrt::geometry::Vec3;
+    let b = scene.bounds();
+    let (c, size) = (b.center(), b.diagonal().max(1e-3));
+    let eye = c + at * size;
+    let forward = (c - eye).normalize();
+    let right = forward.cross(Vec3::Y).normalize();
+    let up = right.cross(forward);
+    let dirs = (0..w * h)
+        .map(|i| {
+            let (x, y) = ((i % w) as f32 / w as f32, (i / w) as f32 / h as f32);
+            forward + right * (x - 0.5) * spread.0 + up * (0.5 - y) * spread.1
+        })
+        .collect();
+    (eye, dirs)
+}
+
 /// A camera's rays row by row, and rays from points in the scene to a far light, each list
 /// as a batch: the batch queries walk the first in tiles and the second sorted by direction
 /// (`accel::order`), and every ray gets brute force's answer, and alone the same as in its
@@ -76,18 +100,11 @@ fn camera_and_light_rays_in_the_orders_packets_take() {
     for (k, scene) in scenes.iter().enumerate() {
         let b = scene.bounds();
         let (c, size) = (b.center(), b.diagonal().max(1e-3));
-        let eye = c + Vec3::new(0.3, 0.4, -1.5) * size;
-        let forward = (c - eye).normalize();
-        let right = forward.cross(Vec3::Y).normalize();
-        let up = right.cross(forward);
         // Odd sizes, so that tiles are cut at the right and the bottom.
-        let (w, h) = (37, 21);
-        let camera: Vec<Ray> = (0..w * h)
-            .map(|i| {
-                let (x, y) = ((i % w) as f32 / w as f32, (i / w) as f32 / h as f32);
-                let d = forward + right * (x - 0.5) * 0.8 + up * (0.5 - y) * 0.5;
-                Ray::new(eye, d, 0.0, f32::INFINITY)
-            })
+        let (eye, dirs) = camera(scene, Vec3::new(0.3, 0.4, -1.5), (37, 21), (0.8, 0.5));
+        let camera: Vec<Ray> = dirs
+            .into_iter()
+            .map(|d| Ray::new(eye, d, 0.0, f32::INFINITY))
             .collect();
         assert_all_agree(scene, &specs(), &camera);
         let light = c + Vec3::new(7.0, 11.0, 9.0) * size;
@@ -111,19 +128,11 @@ fn camera_groups_with_rays_that_walk_alone() {
     use hugrt::accel::{AnyAccel, NoCounters};
     use hugrt::geometry::{Ray, Vec3};
     let scene = clustered_soup(31, 500);
-    let b = scene.bounds();
-    let (c, size) = (b.center(), b.diagonal().max(1e-3));
-    let eye = c + Vec3::new(0.2, -0.3, -1.4) * size;
-    let forward = (c - eye).normalize();
-    let right = forward.cross(Vec3::Y).normalize();
-    let up = right.cross(forward);
-    let (w, h) = (40, 24);
-    let mut rays: Vec<Ray> = (0..w * h)
-        .map(|i| {
-            let (x, y) = ((i % w) as f32 / w as f32, (i / w) as f32 / h as f32);
-            let d = forward + right * (x - 0.5) * 0.6 + up * (0.5 - y) * 0.4;
-            Ray::new(eye, d, 0.0, f32::INFINITY)
-        })
+    let c = scene.bounds().center();
+    let (eye, dirs) = camera(&scene, Vec3::new(0.2, -0.3, -1.4), (40, 24), (0.6, 0.4));
+    let mut rays: Vec<Ray> = dirs
+        .into_iter()
+        .map(|d| Ray::new(eye, d, 0.0, f32::INFINITY))
         .collect();
     for (k, ray) in rays.iter_mut().enumerate().skip(3).step_by(11) {
         *ray = match k % 4 {
@@ -156,19 +165,7 @@ fn tiny_directions_hit_at_a_finite_t_or_not_at_all() {
     use hugrt::accel::{AnyAccel, NoCounters};
     use hugrt::geometry::{Ray, Vec3};
     for scene in [clustered_soup(41, 400), mixed(42, 120)] {
-        let b = scene.bounds();
-        let (c, size) = (b.center(), b.diagonal().max(1e-3));
-        let eye = c + Vec3::new(0.3, -0.2, -1.5) * size;
-        let forward = (c - eye).normalize();
-        let right = forward.cross(Vec3::Y).normalize();
-        let up = right.cross(forward);
-        let (w, h) = (24, 16);
-        let camera: Vec<Vec3> = (0..w * h)
-            .map(|i| {
-                let (x, y) = ((i % w) as f32 / w as f32, (i / w) as f32 / h as f32);
-                forward + right * (x - 0.5) * 0.5 + up * (0.5 - y) * 0.3
-            })
-            .collect();
+        let (eye, camera) = camera(&scene, Vec3::new(0.3, -0.2, -1.5), (24, 16), (0.5, 0.3));
         let brute = AnyAccel::build(&scene, "brute").unwrap();
         let mut seen = Vec::new();
         for scale in [1e-30, 1e-35, 3e-37, 2e-38, f32::MIN_POSITIVE] {
