@@ -35,6 +35,7 @@
 //! may not) is walked ray by ray.
 
 use super::cells::BLOCK;
+use super::walk::split_grids;
 use super::{Frame, GRID_TAG, GridHierarchy, NO_FRAME};
 use crate::accel::block::{Block, BlockRay, BlockRays, LANES, Lanes as Lanes8};
 use crate::accel::packet::{MAX_PACKET, PACKET, each_lane};
@@ -647,7 +648,7 @@ impl GridHierarchy {
         level: usize,
         counters: &mut C,
     ) {
-        let mut refs = &self.refs[start..end];
+        let (mut refs, grids) = split_grids(&self.refs[start..end]);
         #[cfg(target_arch = "x86_64")]
         if self.simd && (here & packet.live).count_ones() > 1 {
             let triangles = self.store.triangle_count();
@@ -670,10 +671,7 @@ impl GridHierarchy {
                 packet.live &= !(1 << l);
             }
         }
-        for &r in &self.refs[start..end] {
-            if r & GRID_TAG == 0 {
-                continue;
-            }
+        for &r in grids {
             let sub = r & !GRID_TAG;
             // The packet's other rays enter the grid too, now rather than from cells of their
             // own (the walk drops those that miss its box): a grid entered by part of a

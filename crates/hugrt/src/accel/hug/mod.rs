@@ -608,6 +608,59 @@ mod tests {
             .install(slices_and_whole_agree);
     }
 
+    /// Every cell lists its objects in store order, then the grids it references: the walks
+    /// split a cell's references there ([`crate::accel::hierarchy`]'s `split_grids`) and test
+    /// the triangles, which come first in the store, by one partition. Checked on a HUG with
+    /// sub-grids, with its crowded cells cut again as the recursive grid cuts them (which
+    /// puts a new grid in place of a cell's objects) and without.
+    #[test]
+    fn cells_list_their_objects_then_their_grids() {
+        use crate::accel::hierarchy::{GRID_TAG, Resolution, Subdivision};
+        let scene = crate::scene::procedural::clustered_room(3_000, 5);
+        let settings = HugSettings {
+            min_cluster: 1,
+            loose: 1e30,
+            ..HugSettings::default()
+        };
+        let cut = Subdivision {
+            maxp: 2,
+            max_depth: 2,
+            guard: true,
+            cells: Resolution::Cubical(1.0),
+        };
+        for subdivision in [None, Some(cut)] {
+            let (store, boxes) = store_with_boxes(&scene, TriangleStorage::Copy).unwrap();
+            let (plans, _) = build::plan(&store, &boxes, &settings.recipe());
+            let cutting = subdivision.is_some();
+            let grids = GridHierarchy::build(
+                &scene,
+                store,
+                &plans,
+                Prune::None,
+                subdivision,
+                Simd::Widest,
+            )
+            .unwrap();
+            assert!(
+                grids.grid_count() > plans.len() || !cutting,
+                "no cell was cut"
+            );
+            let (refs, _, starts) = grids.layout();
+            let mut with_grids = 0;
+            for cell in starts.windows(2) {
+                let refs = &refs[cell[0] as usize..cell[1] as usize];
+                let objects = refs.iter().take_while(|&&r| r & GRID_TAG == 0).count();
+                assert!(
+                    refs[objects..].iter().all(|&r| r & GRID_TAG != 0),
+                    "{refs:?}"
+                );
+                assert!(refs[..objects].is_sorted_by(|a, b| a < b), "{refs:?}");
+                with_grids += (objects < refs.len()) as usize;
+            }
+            assert!(with_grids > 0, "no cell references a grid");
+        }
+    }
+
     fn slices_and_whole_agree() {
         let scene = crate::scene::procedural::clustered_room(20_000, 3);
         let mesh = crate::scene::Terrain::with_triangles(40_000, 2).scene();
