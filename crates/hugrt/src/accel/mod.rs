@@ -52,6 +52,7 @@ pub use octree::{Octree, OctreeSettings};
 pub use packet::{MAX_PACKET, PACKET, Packets};
 pub use query::{AnyHit, Closest, EveryHit, Hit, HitSink};
 pub use reach::Reach;
+use reach::Route;
 pub use rgrid::{RecursiveGrid, RecursiveGridSettings};
 pub use settings::{KeyHelp, NoSettings, Settings};
 pub use simd::Simd;
@@ -347,11 +348,12 @@ pub trait Accel: Sized + Send + Sync {
         ray: &Ray,
         counters: &mut C,
     ) -> Option<Hit> {
-        if !ray.is_traceable() {
-            return None;
-        }
-        if !self.reach().walks_as_given(ray) {
-            return far_first_hit(self, prims, ray, counters, Closest::new, Closest::hit);
+        match self.reach().route(ray) {
+            Route::Skip => return None,
+            Route::Moved => {
+                return far_first_hit(self, prims, ray, counters, Closest::new, Closest::hit);
+            }
+            Route::AsGiven => {}
         }
         let ray = &ray.without_subnormal_direction();
         let mut sink = Closest::new(ray.tmax);
@@ -368,14 +370,13 @@ pub trait Accel: Sized + Send + Sync {
         ray: &Ray,
         counters: &mut C,
     ) -> Option<Walked> {
-        if !ray.is_traceable() {
-            return None;
-        }
-        let (walked, moved) = if self.reach().walks_as_given(ray) {
-            (ray.without_subnormal_direction(), None)
-        } else {
-            let m = self.reach().moved(ray)?;
-            (m.ray, Some(m))
+        let (walked, moved) = match self.reach().route(ray) {
+            Route::Skip => return None,
+            Route::AsGiven => (ray.without_subnormal_direction(), None),
+            Route::Moved => {
+                let m = self.reach().moved(ray)?;
+                (m.ray, Some(m))
+            }
         };
         let mut sink = Closest::new(walked.tmax);
         self.query(prims, &walked, &mut sink, counters);
@@ -396,11 +397,12 @@ pub trait Accel: Sized + Send + Sync {
         ray: &Ray,
         counters: &mut C,
     ) -> Option<Hit> {
-        if !ray.is_traceable() {
-            return None;
-        }
-        if !self.reach().walks_as_given(ray) {
-            return far_first_hit(self, prims, ray, counters, AnyHit::new, AnyHit::hit);
+        match self.reach().route(ray) {
+            Route::Skip => return None,
+            Route::Moved => {
+                return far_first_hit(self, prims, ray, counters, AnyHit::new, AnyHit::hit);
+            }
+            Route::AsGiven => {}
         }
         let ray = &ray.without_subnormal_direction();
         let mut sink = AnyHit::new(ray.tmax);
@@ -478,15 +480,18 @@ pub trait Accel: Sized + Send + Sync {
         counters: &mut C,
         mut f: F,
     ) {
-        if !ray.is_traceable() {
-            return;
-        }
-        if self.reach().walks_as_given(ray) {
-            let ray = &ray.without_subnormal_direction();
-            self.query(prims, ray, &mut EveryHit::new(ray.tmax, f), counters);
-        } else if let Some(m) = self.reach().moved(ray) {
-            let sink = &mut EveryHit::new(m.ray.tmax, |h| f(m.hit(h)));
-            self.query(prims, &m.ray, sink, counters);
+        match self.reach().route(ray) {
+            Route::Skip => {}
+            Route::AsGiven => {
+                let ray = &ray.without_subnormal_direction();
+                self.query(prims, ray, &mut EveryHit::new(ray.tmax, f), counters);
+            }
+            Route::Moved => {
+                if let Some(m) = self.reach().moved(ray) {
+                    let sink = &mut EveryHit::new(m.ray.tmax, |h| f(m.hit(h)));
+                    self.query(prims, &m.ray, sink, counters);
+                }
+            }
         }
     }
 
@@ -620,16 +625,15 @@ fn first_hits_of_group<A: Accel, P: Primitives, C: Counters, S: HitSink>(
     let mut n = 0;
     for &i in at {
         let ray = &rays[i as usize];
-        out[i as usize] = if !ray.is_traceable() {
-            None
-        } else {
-            if accel.reach().walks_as_given(ray) {
+        out[i as usize] = match accel.reach().route(ray) {
+            Route::Skip => None,
+            Route::AsGiven => {
                 walked[n] = ray.without_subnormal_direction();
                 lane_of[n] = i;
                 n += 1;
                 continue;
             }
-            far_first_hit(accel, prims, ray, counters, sink, hit)
+            Route::Moved => far_first_hit(accel, prims, ray, counters, sink, hit),
         };
     }
     if !packets.walk_together(&walked[..n], A::PACKETS_PAY) {

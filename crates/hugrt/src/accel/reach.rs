@@ -109,13 +109,28 @@ impl Reach {
 
     /// Whether a traceable `ray` is walked as given (its subnormal direction components
     /// flushed): its origin is near the primitives, and its direction not small
-    /// ([`Ray::has_small_direction`]). The queries test this alone on the hot path and leave
-    /// [`Reach::moved`] to a separate, cold function: building a moved-or-not ray on the stack
-    /// for every query cost the bvh 30% of its camera rays' speed (stores and loads of
-    /// different widths that the CPU cannot forward).
+    /// ([`Ray::has_small_direction`]). The queries test this alone on the hot path (with
+    /// [`Ray::is_traceable`], from one reading of the ray's bits) and leave [`Reach::moved`]
+    /// to a separate, cold function: building a moved-or-not ray on the stack for every query
+    /// cost the bvh 30% of its camera rays' speed (stores and loads of different widths that
+    /// the CPU cannot forward).
     #[inline(always)]
     pub fn walks_as_given(&self, ray: &Ray) -> bool {
         (ray.origin.abs().max_element() <= self.far) & !ray.has_small_direction()
+    }
+
+    /// What a query does with `ray`: [`Ray::is_traceable`] and [`Reach::walks_as_given`]
+    /// together, the direction's bits read once.
+    #[inline(always)]
+    pub(crate) fn route(&self, ray: &Ray) -> Route {
+        let (traceable, small) = ray.traceable_and_small();
+        if !traceable {
+            Route::Skip
+        } else if (ray.origin.abs().max_element() <= self.far) & !small {
+            Route::AsGiven
+        } else {
+            Route::Moved
+        }
     }
 
     /// The ray to walk for a traceable ray that is not walked as given
@@ -172,6 +187,17 @@ impl Reach {
     }
 }
 
+/// What a query does with a ray ([`Reach::route`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Route {
+    /// Not traceable: no hit.
+    Skip,
+    /// Walked as given, its subnormal direction components flushed.
+    AsGiven,
+    /// Walked as [`Reach::moved`] gives it.
+    Moved,
+}
+
 /// `ray` with a small direction ([`Ray::has_small_direction`]) scaled by the power of two `s`
 /// that brings its largest component into `[1, 2)`, its interval divided by `s` (`tmax` first
 /// bounded by `f32::MAX`, so that no hit maps back past it), and its subnormal components then
@@ -217,6 +243,56 @@ mod tests {
         let ray = Ray::new(Vec3::splat(15.0), -Vec3::ONE, -3.0, 40.0);
         assert!(reach.walks_as_given(&ray));
         assert!(!reach.walks_as_given(&Ray::new(Vec3::splat(17.0), -Vec3::ONE, -3.0, 40.0)));
+    }
+
+    /// The queries' one reading of a ray's bits ([`Reach::route`]) says what
+    /// [`Ray::is_traceable`] and [`Reach::walks_as_given`] say, on rays near the bounds of
+    /// each: the direction at and below [`Ray::SMALL_DIRECTION`], the origin at and past the
+    /// reach, components past [`Ray::MAX_COMPONENT`], NaN, a zero direction, empty intervals.
+    #[test]
+    fn the_route_is_the_two_checks() {
+        let reach = Reach::of(&unit_cube());
+        let small = Ray::SMALL_DIRECTION;
+        let past = Ray::MAX_COMPONENT * 2.0;
+        let origins = [
+            Vec3::splat(0.5),
+            Vec3::splat(15.0),
+            Vec3::splat(17.0),
+            Vec3::new(-past, 0.0, 0.0),
+            Vec3::new(0.0, f32::NAN, 0.0),
+        ];
+        let directions = [
+            Vec3::new(1.0, -0.5, 0.25),
+            Vec3::new(0.0, 0.0, -small),
+            Vec3::new(small * 0.75, -small * 0.5, 0.0),
+            Vec3::splat(f32::MIN_POSITIVE * 0.5),
+            Vec3::ZERO,
+            Vec3::new(0.0, past, 0.0),
+            Vec3::new(f32::INFINITY, 0.0, 0.0),
+        ];
+        let intervals = [
+            (0.0, f32::INFINITY),
+            (2.0, 1.0),
+            (f32::INFINITY, f32::INFINITY),
+        ];
+        let mut seen = [0; 3];
+        for o in origins {
+            for d in directions {
+                for (tmin, tmax) in intervals {
+                    let ray = Ray::new(o, d, tmin, tmax);
+                    let expected = if !ray.is_traceable() {
+                        Route::Skip
+                    } else if reach.walks_as_given(&ray) {
+                        Route::AsGiven
+                    } else {
+                        Route::Moved
+                    };
+                    assert_eq!(reach.route(&ray), expected, "{ray:?}");
+                    seen[expected as usize] += 1;
+                }
+            }
+        }
+        assert!(seen.iter().all(|&n| n > 0), "{seen:?}");
     }
 
     /// A ray from 10¹⁸ away is moved to just before the box, on the ray to within an ulp of the

@@ -27,6 +27,14 @@ impl Ray {
     /// rather than a garbage hit or a walk that never ends.
     #[inline]
     pub fn is_traceable(&self) -> bool {
+        self.traceable_and_small().0
+    }
+
+    /// [`Ray::is_traceable`] and [`Ray::has_small_direction`] from one pass over the
+    /// components' bits: every query asks both of every ray, and the compiler did not share
+    /// the union of the direction's bits between the two (four instructions a ray).
+    #[inline(always)]
+    pub(crate) fn traceable_and_small(&self) -> (bool, bool) {
         // Magnitudes compared by their bits, in which non-negative floats are ordered as their
         // values, and NaN and ±∞ lie above `MAX_COMPONENT`: one integer comparison a component
         // is `is_finite` and the bound together, without a branch (a camera ray's checks
@@ -39,10 +47,13 @@ impl Ray {
             .max(magnitude_bits(d.y))
             .max(magnitude_bits(d.z));
         let direction = magnitude_bits(d.x) | magnitude_bits(d.y) | magnitude_bits(d.z);
-        (largest <= Self::MAX_COMPONENT.to_bits())
+        let traceable = (largest <= Self::MAX_COMPONENT.to_bits())
             & (direction != 0)
             & (self.tmin <= self.tmax)
-            & (self.tmin < f32::INFINITY)
+            & (self.tmin < f32::INFINITY);
+        // The bound's bits are a power of two (2^29), so the components all lie below it
+        // exactly when the union of their bits does.
+        (traceable, direction < Self::SMALL_DIRECTION.to_bits())
     }
 
     /// The largest origin or direction component a query takes: 2^64, about 1.8·10^19.
@@ -68,11 +79,7 @@ impl Ray {
     /// Whether every direction component is below [`Ray::SMALL_DIRECTION`] in magnitude.
     #[inline(always)]
     pub fn has_small_direction(&self) -> bool {
-        // The bound's bits are a power of two (2^29), so the components all lie below it
-        // exactly when the union of their bits does.
-        let d = self.dir;
-        (magnitude_bits(d.x) | magnitude_bits(d.y) | magnitude_bits(d.z))
-            < Self::SMALL_DIRECTION.to_bits()
+        self.traceable_and_small().1
     }
 
     /// The ray with each subnormal direction component (below 2^-126 in magnitude) made a
