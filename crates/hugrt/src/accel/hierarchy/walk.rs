@@ -310,8 +310,8 @@ impl GridHierarchy {
     /// [`Self::test_objects`], their store entries prefetched first, out of the walk's loop:
     /// most occupied cells a ray crosses are skipped by their box (93% of those the city's
     /// shadow rays cross), and with the tests inlined the loop's state did not fit the
-    /// registers. Out of line, the single walk ran 1.04–1.48× faster with 2–8% fewer
-    /// instructions (docs/measurements.md, "A cell's tests out of the walk's loop").
+    /// registers. Out of line, the single walk ran with 2–8% fewer instructions, and
+    /// 1.04–1.2× faster (docs/measurements.md, "A cell's tests out of the walk's loop").
     #[allow(clippy::too_many_arguments)]
     #[inline(never)]
     fn test_held<P: Primitives, C: Counters, S: HitSink>(
