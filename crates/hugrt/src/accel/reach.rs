@@ -109,14 +109,14 @@ impl Reach {
 
     /// Whether a traceable `ray` is walked as given (its subnormal direction components
     /// flushed): its origin is near the primitives, and its direction not small
-    /// ([`Ray::has_small_direction`]). The queries test this alone on the hot path (with
-    /// [`Ray::is_traceable`], from one reading of the ray's bits) and leave [`Reach::moved`]
-    /// to a separate, cold function: building a moved-or-not ray on the stack for every query
+    /// ([`Ray::has_small_direction`]). The queries ask this on the hot path, together with
+    /// [`Ray::is_traceable`] from one reading of the ray's bits, and leave [`Reach::moved`] to
+    /// a separate, cold function: building a moved-or-not ray on the stack for every query
     /// cost the bvh 30% of its camera rays' speed (stores and loads of different widths that
     /// the CPU cannot forward).
     #[inline(always)]
     pub fn walks_as_given(&self, ray: &Ray) -> bool {
-        (ray.origin.abs().max_element() <= self.far) & !ray.has_small_direction()
+        self.near(ray) & !ray.has_small_direction()
     }
 
     /// What a query does with `ray`: [`Ray::is_traceable`] and [`Reach::walks_as_given`]
@@ -126,11 +126,17 @@ impl Reach {
         let (traceable, small) = ray.traceable_and_small();
         if !traceable {
             Route::Skip
-        } else if (ray.origin.abs().max_element() <= self.far) & !small {
+        } else if self.near(ray) & !small {
             Route::AsGiven
         } else {
             Route::Moved
         }
+    }
+
+    /// Whether the ray's origin is near enough to the primitives to be walked from.
+    #[inline(always)]
+    fn near(&self, ray: &Ray) -> bool {
+        ray.origin.abs().max_element() <= self.far
     }
 
     /// The ray to walk for a traceable ray that is not walked as given
