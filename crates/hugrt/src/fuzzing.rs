@@ -120,15 +120,17 @@ pub fn assert_all_agree<P: Primitives, S: AsRef<str>>(prims: &P, specs: &[S], ra
 }
 
 /// Asserts that the batch queries give every ray the answer it gets alone, bit for bit, with
-/// every group of [`PACKET`] rays walked as a packet (`Packets::On`), coherent or not, and with
+/// every group of [`PACKET`] rays walked as a packet (`Packets::On`), coherent or not, with
 /// the groups that look coherent walked as packets (`Packets::Auto`, where a group is judged on
-/// the rays it walks: its rays that cannot be walked together are answered alone).
+/// the rays it walks: its rays that cannot be walked together are answered alone), and with no
+/// packets (`Packets::Off`: every group through [`crate::accel::Accel::query_each`], which
+/// the bvh interleaves).
 pub fn assert_packets_agree<P: Primitives>(prims: &P, accel: &AnyAccel, spec: &str, rays: &[Ray]) {
     let alone: Vec<Option<Hit>> = rays
         .iter()
         .map(|r| accel.closest_hit(prims, r, &mut NoCounters))
         .collect();
-    for packets in [Packets::On, Packets::Auto] {
+    for packets in [Packets::On, Packets::Auto, Packets::Off] {
         let mut got = vec![None; rays.len()];
         accel.closest_hits(prims, rays, packets, &mut got, &mut NoCounters);
         let mut any = vec![None; rays.len()];

@@ -282,6 +282,11 @@ pub trait Accel: Sized + Send + Sync {
     /// "Packets"): a grid's packet of 32 rays shares each slice's cells among a tile's rays,
     /// where the bvh's packets of 8 gained less than the grouping cost.
     const ORDER_PAYS: bool = false;
+    /// Whether [`Accel::query_each`] walks several rays at once, faster than one at a time as
+    /// measured (`docs/measurements.md`, "The bvh's walks interleaved"): the batch queries
+    /// then hand it the rays they do not walk in packets, where otherwise they call
+    /// [`Accel::query`] ray by ray.
+    const INTERLEAVES: bool = false;
 
     /// Builds the structure with typed settings, e.g. `Bvh::with_settings(&scene,
     /// &BvhSettings { leaf: 4, ..Default::default() })`: an error names a value out of its
@@ -326,6 +331,22 @@ pub trait Accel: Sized + Send + Sync {
     /// [`Accel::any_hits`]. The default walks the rays one at a time; a structure with a packet
     /// walk overrides it.
     fn query_packet<P: Primitives, C: Counters, S: HitSink>(
+        &self,
+        prims: &P,
+        rays: &[Ray],
+        sinks: &mut [S],
+        counters: &mut C,
+    ) {
+        for (ray, sink) in rays.iter().zip(sinks) {
+            self.query(prims, ray, sink, counters);
+        }
+    }
+
+    /// The walk of rays that the batch queries do not walk in packets, `rays[r]` (each
+    /// traceable, walked as given and without subnormal direction components, as in
+    /// [`Accel::query_packet`]) offering its hits to `sinks[r]` as [`Accel::query`] would.
+    /// Called only where [`Accel::INTERLEAVES`]; the default walks the rays one at a time.
+    fn query_each<P: Primitives, C: Counters, S: HitSink>(
         &self,
         prims: &P,
         rays: &[Ray],
@@ -637,6 +658,14 @@ fn first_hits_of_group<A: Accel, P: Primitives, C: Counters, S: HitSink>(
         };
     }
     if !packets.walk_together(&walked[..n], A::PACKETS_PAY) {
+        if A::INTERLEAVES {
+            let mut sinks: [S; MAX_PACKET] = std::array::from_fn(|l| sink(walked[l].tmax));
+            accel.query_each(prims, &walked[..n], &mut sinks[..n], counters);
+            for (s, &i) in sinks[..n].iter().zip(&lane_of) {
+                out[i as usize] = hit(s);
+            }
+            return;
+        }
         for (ray, &i) in walked[..n].iter().zip(&lane_of) {
             out[i as usize] = near_alone(ray, counters);
         }

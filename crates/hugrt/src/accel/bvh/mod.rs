@@ -285,6 +285,7 @@ impl Bvh {
 impl Accel for Bvh {
     const NAME: &'static str = "bvh";
     const PACKETS_PAY: bool = true;
+    const INTERLEAVES: bool = true;
     type Settings = BvhSettings;
 
     fn build_checked<P: Primitives>(prims: &P, settings: &BvhSettings) -> Result<Self, SpecError> {
@@ -452,6 +453,16 @@ impl Accel for Bvh {
         counters: &mut C,
     ) {
         self.walk_packet(prims, rays, sinks, counters);
+    }
+
+    fn query_each<P: Primitives, C: Counters, S: HitSink>(
+        &self,
+        prims: &P,
+        rays: &[Ray],
+        sinks: &mut [S],
+        counters: &mut C,
+    ) {
+        self.walk_stream(prims, rays, sinks, counters);
     }
 
     fn reach(&self) -> &crate::accel::Reach {
