@@ -337,9 +337,7 @@ pub trait Accel: Sized + Send + Sync {
         sinks: &mut [S],
         counters: &mut C,
     ) {
-        for (ray, sink) in rays.iter().zip(sinks) {
-            self.query(prims, ray, sink, counters);
-        }
+        each_alone(self, prims, rays, sinks, counters);
     }
 
     /// The walk of rays that the batch queries do not walk in packets, `rays[r]` (each
@@ -353,9 +351,7 @@ pub trait Accel: Sized + Send + Sync {
         sinks: &mut [S],
         counters: &mut C,
     ) {
-        for (ray, sink) in rays.iter().zip(sinks) {
-            self.query(prims, ray, sink, counters);
-        }
+        each_alone(self, prims, rays, sinks, counters);
     }
 
     /// Where the primitives lie: far rays are moved to them before the walk ([`Reach`]).
@@ -549,6 +545,21 @@ pub struct Walked {
     pub hit: Hit,
     /// The hit's `t` on the caller's ray.
     pub t: f32,
+}
+
+/// Each of `rays` walked alone ([`Accel::query`]) into its sink of `sinks`: the default of
+/// [`Accel::query_packet`] and [`Accel::query_each`].
+#[inline]
+fn each_alone<A: Accel, P: Primitives, C: Counters, S: HitSink>(
+    accel: &A,
+    prims: &P,
+    rays: &[Ray],
+    sinks: &mut [S],
+    counters: &mut C,
+) {
+    for (ray, sink) in rays.iter().zip(sinks) {
+        accel.query(prims, ray, sink, counters);
+    }
 }
 
 /// [`Accel::closest_hit`] (`Closest::new`, `Closest::hit`) or [`Accel::any_hit`] (the same

@@ -314,26 +314,24 @@ pub(crate) fn walk_tree_stream<S: HitSink, C: Counters, const VISITS: bool>(
             )
         };
     }
+    // A step of walk `$walk`; if it ends, the next ray takes its place, or with none left
+    // the other walk ends alone, without asking for lines it reads at once.
+    macro_rules! turn {
+        ($walk:ident, $w:literal, $r:ident, $other:ident, $o:literal, $ro:ident) => {
+            if !step!($walk, $w, $r, &fetch) {
+                if next == n {
+                    while step!($other, $o, $ro, &|_| {}) {}
+                    return;
+                }
+                $r = next;
+                next += 1;
+                $walk.restart(&rays[$r]);
+            }
+        };
+    }
     loop {
-        if !step!(a, 0, ra, &fetch) {
-            if next == n {
-                // The other walk ends alone, without asking for lines it reads at once.
-                while step!(b, 1, rb, &|_| {}) {}
-                return;
-            }
-            ra = next;
-            next += 1;
-            a.restart(&rays[ra]);
-        }
-        if !step!(b, 1, rb, &fetch) {
-            if next == n {
-                while step!(a, 0, ra, &|_| {}) {}
-                return;
-            }
-            rb = next;
-            next += 1;
-            b.restart(&rays[rb]);
-        }
+        turn!(a, 0, ra, b, 1, rb);
+        turn!(b, 1, rb, a, 0, ra);
     }
 }
 
