@@ -259,6 +259,7 @@ pub(crate) fn walk_tree<S: HitSink, C: Counters, const VISITS: bool>(
 /// [`walk_tree`] of every ray of `rays` (`rays[r]` offering its hits to `sinks[r]`), two
 /// walks interleaved step by step, a walk that ends handing its place to the next ray; at a
 /// leaf, `leaf(walk, r, start, count, sink, counters)`, `walk` being 0 or 1.
+/// `leaf_address(start)` is where the leaf list's slot `start` lies, for the prefetch.
 ///
 /// One ray's walk waits on a dependent load at every step: the node or block it opens next is
 /// known only once the step before is done. Two walks depend on no common load, and each
@@ -393,8 +394,9 @@ impl<'s> TreeWalk<'s> {
     }
 
     /// Opens the current entry (a node's children hit, a leaf tested, or an entry beyond the
-    /// sink's `tmax` dropped) and takes the next one: `false` when the walk is over, the
-    /// stack empty or the sink stopped by a leaf.
+    /// sink's `tmax` dropped) and takes the next one, handing its child reference to `fetch`
+    /// (a prefetch, or nothing): `false` when the walk is over, the stack empty or the sink
+    /// stopped by a leaf.
     #[inline(always)]
     fn step<S: HitSink, C: Counters, const VISITS: bool>(
         &mut self,
