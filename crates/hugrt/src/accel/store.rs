@@ -327,6 +327,24 @@ impl PrimStore {
         self.ids[s as usize]
     }
 
+    /// Where store entry `s`'s triangle lies (its vertex indices where the store is indexed),
+    /// for a prefetch: never read through, so `s` may be past the end.
+    #[inline(always)]
+    pub fn entry_address(&self, s: u32) -> *const i8 {
+        match self.vertices {
+            None => self.tris.as_ptr().wrapping_add(s as usize).cast(),
+            Some(_) => self.tri_indices.as_ptr().wrapping_add(s as usize).cast(),
+        }
+    }
+
+    /// Bytes between consecutive entries' triangles at [`PrimStore::entry_address`].
+    pub fn entry_bytes(&self) -> usize {
+        match self.vertices {
+            None => std::mem::size_of::<[Vec3; 3]>(),
+            Some(_) => std::mem::size_of::<[u32; 3]>(),
+        }
+    }
+
     /// Asks the cache for store entry `s`'s triangle, so that the loads of a cell's triangles
     /// overlap instead of waiting for each other (a cell's references are known at once).
     #[inline(always)]

@@ -206,6 +206,16 @@ impl Bvh {
         // Each walk's ray set up for the triangle tests at its first leaf, as in `walk`.
         let mut prepared: [Option<(PreparedRay, BlockRay)>; 2] = [None; 2];
         let mut prepared_for = [usize::MAX; 2];
+        // Where a leaf's slot lies: its first block, or for an indexed leaf its first entry
+        // where the leaf names it, else its line of the table of starts (the entries are
+        // known only once that is read).
+        let (leaves, leaf_bytes): (*const i8, usize) = if !self.indexed {
+            (self.blocks.as_ptr().cast(), std::mem::size_of::<Block>())
+        } else if self.leaf_starts.is_empty() {
+            (self.store.entry_address(0), self.store.entry_bytes())
+        } else {
+            (self.leaf_starts.as_ptr().cast(), 4)
+        };
         walk_tree_stream::<S, C, true>(
             &self.nodes,
             rays,
@@ -221,14 +231,7 @@ impl Bvh {
                 });
                 self.test_leaf(start, count, prims, p, rays[r].tmin, sink, counters)
             },
-            // An indexed leaf's entries are not fetched ahead: its address is a block's that
-            // is never read, and a prefetch of it changes nothing.
-            |start| {
-                self.blocks
-                    .as_ptr()
-                    .wrapping_add(start as usize)
-                    .cast::<i8>()
-            },
+            |start| leaves.wrapping_add(start as usize * leaf_bytes),
         );
     }
 }
