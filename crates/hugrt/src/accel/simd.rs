@@ -87,6 +87,22 @@ crate::accel::settings::choice_value!(Simd {
     Simd::Off => "false",
 });
 
+/// Asks the cache for the line holding `p`, a hint that never faults whatever the address
+/// (so `p` may come from `wrapping_add` past an end), and does nothing off x86-64.
+#[inline(always)]
+pub(crate) fn prefetch_line(p: *const i8) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+        // SAFETY: `_mm_prefetch` needs SSE, part of every x86_64 target's baseline; a
+        // prefetch is a hint to the cache that never faults, whatever the address, and
+        // changes nothing the program can observe.
+        unsafe { _mm_prefetch::<_MM_HINT_T0>(p) };
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = p;
+}
+
 /// Whether the running processor has what the AVX-512 walks are compiled for, beside AVX2
 /// ([`available`]).
 pub(crate) fn avx512_available() -> bool {

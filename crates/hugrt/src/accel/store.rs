@@ -345,33 +345,12 @@ impl PrimStore {
         }
     }
 
-    /// Asks the cache for store entry `s`'s triangle, so that the loads of a cell's triangles
-    /// overlap instead of waiting for each other (a cell's references are known at once).
+    /// Asks the cache for store entry `s`'s triangle (where indexed, its indices, which the
+    /// vertices' loads wait for), so that the loads of a cell's triangles overlap instead of
+    /// waiting for each other (a cell's references are known at once).
     #[inline(always)]
     pub fn prefetch(&self, s: u32) {
-        #[cfg(target_arch = "x86_64")]
-        {
-            use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
-            // Indexed: the indices, which the vertices' loads wait for.
-            let line = match self.vertices {
-                None => self
-                    .tris
-                    .get(s as usize)
-                    .map(|t| (t as *const [Vec3; 3]).cast::<i8>()),
-                Some(_) => self
-                    .tri_indices
-                    .get(s as usize)
-                    .map(|t| (t as *const [u32; 3]).cast::<i8>()),
-            };
-            if let Some(p) = line {
-                // SAFETY: `_mm_prefetch` needs SSE, which is part of every x86_64 target's
-                // baseline; a prefetch is a hint to the cache that never faults and changes
-                // nothing the program can observe, and the address is that of a live element.
-                unsafe { _mm_prefetch::<_MM_HINT_T0>(p) };
-            }
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        let _ = s;
+        crate::accel::simd::prefetch_line(self.entry_address(s));
     }
 
     /// Hit parameter of store entry `s` in `[tmin, tmax]`, exactly as

@@ -496,16 +496,7 @@ impl<'s> TreeWalk<'s> {
 /// other work runs: they hold a node's 112 bytes, and a block's 160 but for at most 16.
 #[inline(always)]
 pub(super) fn fetch_lines(p: *const i8) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
-        for at in [0, 64, 128] {
-            // SAFETY: `_mm_prefetch` needs SSE, part of every x86_64 target's baseline; a
-            // prefetch never faults, whatever the address, and changes nothing the program
-            // can observe.
-            unsafe { _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(at)) };
-        }
+    for at in [0, 64, 128] {
+        crate::accel::simd::prefetch_line(p.wrapping_add(at));
     }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = p;
 }
