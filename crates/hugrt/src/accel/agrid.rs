@@ -168,7 +168,6 @@ impl Accel for AdaptiveGrid {
             .iter()
             .fold(Aabb::EMPTY, |a, &s| a.union(&boxes[s as usize]));
         let clusters = Self::cluster(&boxes, &order, settings.f, settings.m * scene.diagonal());
-        drop(boxes);
         let per_object = Resolution::Cubical(settings.density as f64);
         let plan = |objects: Vec<u32>| GridPlan {
             resolution: per_object.for_objects(objects.len()),
@@ -201,7 +200,15 @@ impl Accel for AdaptiveGrid {
             guard: true,
             cells: per_object,
         };
-        let grids = GridHierarchy::build(prims, store, &plans, prune, Some(sub), settings.simd)?;
+        let grids = GridHierarchy::build(
+            prims,
+            store,
+            Some(boxes),
+            &plans,
+            prune,
+            Some(sub),
+            settings.simd,
+        )?;
         let tops: Vec<Aabb> = (0..plans.len()).map(|g| grids.grid_box(g)).collect();
         Ok(AdaptiveGrid {
             grids,

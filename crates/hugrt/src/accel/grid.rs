@@ -130,7 +130,7 @@ impl Accel for Grid {
             scene_box: true,
             shift,
         };
-        let grids = GridHierarchy::build(prims, store, &[plan], prune, None, simd)?;
+        let grids = GridHierarchy::build(prims, store, None, &[plan], prune, None, simd)?;
         Ok(Grid {
             grids,
             prims: n,

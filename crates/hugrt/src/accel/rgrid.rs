@@ -66,7 +66,7 @@ impl CutGrids {
             scene_box: true,
             shift,
         };
-        let grids = GridHierarchy::build(prims, store, &[plan], prune, Some(sub), simd)?;
+        let grids = GridHierarchy::build(prims, store, None, &[plan], prune, Some(sub), simd)?;
         Ok(CutGrids {
             grids,
             prims: n,

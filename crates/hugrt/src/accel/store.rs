@@ -87,6 +87,53 @@ pub(crate) fn finite(b: &Aabb) -> bool {
     !b.is_empty() && b.min.is_finite() && b.max.is_finite()
 }
 
+/// The boxes of a store's entries as a grid build reads them: for the grids' boxes, for
+/// binning, and for the box of each cell's contents, once per reference. A copy store's are
+/// computed once into a table (24 bytes an entry while the build lasts); an indexed
+/// store's, a mesh of 2^24 triangles or more by default where the build's memory is the
+/// constraint, are recomputed from the triangles at each reading, as before.
+pub(crate) struct EntryBoxes<'a, P> {
+    store: &'a PrimStore,
+    prims: &'a P,
+    /// The box of every entry in store order, or nothing.
+    table: Vec<Aabb>,
+}
+
+impl<'a, P: Primitives> EntryBoxes<'a, P> {
+    /// The boxes of `store`'s entries; `known`, when given, holds them already (in store
+    /// order).
+    pub(crate) fn new(prims: &'a P, store: &'a PrimStore, known: Option<Vec<Aabb>>) -> Self {
+        let table = if store.vertices.is_some() {
+            Vec::new()
+        } else {
+            match known {
+                Some(t) => {
+                    debug_assert_eq!(t.len(), store.len());
+                    t
+                }
+                None => (0..store.len() as u32)
+                    .into_par_iter()
+                    .map(|s| store.bounds(prims, s))
+                    .collect(),
+            }
+        };
+        EntryBoxes {
+            store,
+            prims,
+            table,
+        }
+    }
+
+    /// The box of store entry `s`: [`PrimStore::bounds`].
+    #[inline(always)]
+    pub(crate) fn get(&self, s: u32) -> Aabb {
+        match self.table.get(s as usize) {
+            Some(b) => *b,
+            None => self.store.bounds(self.prims, s),
+        }
+    }
+}
+
 /// Primitive `i`'s vertex indices when it is a triangle of the indexed mesh whose shared
 /// vertices number `vertices`, every index in range: what an indexed store holds.
 fn indexed_triangle<P: Primitives>(prims: &P, i: usize, vertices: usize) -> Option<[u32; 3]> {

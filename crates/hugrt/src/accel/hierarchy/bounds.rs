@@ -27,7 +27,7 @@ use super::cells::CellIndex;
 use super::header::GridHeader;
 use super::{GRID_TAG, NO_FRAME};
 use crate::accel::Primitives;
-use crate::accel::store::PrimStore;
+use crate::accel::store::EntryBoxes;
 use crate::geometry::{Aabb, Vec3};
 use rayon::prelude::*;
 
@@ -49,10 +49,9 @@ pub(super) struct CellBounds {
 
 impl CellBounds {
     /// The boxes of the occupied cells of `grids`: for each, the union of its objects' boxes
-    /// (store entries of `refs`), each clipped to the cell, rounded outwards to [`STEPS`].
+    /// (store entries of `refs`, their boxes read from `entries`), each clipped to the cell, rounded outwards to [`STEPS`].
     pub(super) fn build<P: Primitives>(
-        prims: &P,
-        store: &PrimStore,
+        entries: &EntryBoxes<'_, P>,
         grids: &[GridHeader],
         cells: &CellIndex,
         refs: &[u32],
@@ -86,7 +85,7 @@ impl CellBounds {
                         g += 1;
                     }
                     let (s, e, _) = cells.range(idx).expect("an occupied cell");
-                    out[at] = cell_box(prims, store, &grids[g], idx, &refs[s..e]);
+                    out[at] = cell_box(entries, &grids[g], idx, &refs[s..e]);
                     at += 1;
                 }
             }
@@ -124,8 +123,7 @@ impl CellBounds {
 /// The quantised box of cell `idx` (among all grids' cells) of grid `h`, which references
 /// `refs`.
 fn cell_box<P: Primitives>(
-    prims: &P,
-    store: &PrimStore,
+    entries: &EntryBoxes<'_, P>,
     h: &GridHeader,
     idx: usize,
     refs: &[u32],
@@ -145,7 +143,7 @@ fn cell_box<P: Primitives>(
             continue;
         }
         // Only objects with a finite box are binned.
-        held = held.union(&store.bounds(prims, r));
+        held = held.union(&entries.get(r));
     }
     let lo = held.min.max(cell.min);
     let hi = held.max.min(cell.max);

@@ -12,7 +12,7 @@ use super::plan::{GridPlan, Prune, Subdivision};
 use super::{GRID_TAG, GridHierarchy, MAX_REFS_PER_ITEM, MIN_REF_BUDGET, NO_FRAME};
 use crate::accel::simd::{self, Simd};
 use crate::accel::sort::radix_sort_high32_parts;
-use crate::accel::store::{PrimStore, finite};
+use crate::accel::store::{EntryBoxes, PrimStore, finite};
 use crate::accel::{Frame, Primitives, SpecError};
 use crate::geometry::{Aabb, TriangleBoxTest, Vec3};
 use rayon::prelude::*;
@@ -26,6 +26,7 @@ const SLICE_PAIRS: u64 = 1 << 26;
 pub(super) struct Binner<'a, P> {
     pub(super) prims: &'a P,
     pub(super) store: &'a PrimStore,
+    pub(super) boxes: &'a EntryBoxes<'a, P>,
     pub(super) margin: f32,
     /// Objects of a grid without frame spanning at least this many cells are referenced only
     /// by the cells they meet ([`Prune`]).
@@ -72,7 +73,7 @@ impl<P: Primitives> Binner<'_, P> {
             };
             match &triangle {
                 Some(t) => t.cells(lo, hi, |cell| keep_cell(index(cell))),
-                None => GridHierarchy::for_each_cell(h, &b, |cell, i| {
+                None => GridHierarchy::for_each_cell_of(h, lo, hi, |cell, i| {
                     if !test || {
                         let cell = h.cell_box(cell).expand(self.margin);
                         self.prims.overlaps_box(self.store.id(r) as usize, &cell)
@@ -90,8 +91,7 @@ impl<P: Primitives> Binner<'_, P> {
 /// are never binned.
 pub(super) struct Items<'a, P> {
     pub(super) objects: &'a [u32],
-    pub(super) store: &'a PrimStore,
-    pub(super) prims: &'a P,
+    pub(super) boxes: &'a EntryBoxes<'a, P>,
     /// Boxes of `objects` in the grid's frame, when it has one.
     pub(super) turned: Option<Vec<Aabb>>,
     pub(super) children: Vec<(u32, Aabb)>,
@@ -109,7 +109,7 @@ impl<P: Primitives> Items<'_, P> {
         if let Some(&s) = self.objects.get(k) {
             let b = match &self.turned {
                 Some(t) => t[k],
-                None => self.store.bounds(self.prims, s),
+                None => self.boxes.get(s),
             };
             finite(&b).then(|| (s, b.expand(self.margin)))
         } else {
@@ -229,15 +229,28 @@ impl GridHierarchy {
     /// without a finite box are never binned). With `prune`, an object is referenced only by
     /// the cells its own surface meets ([`Primitives::overlaps_box`]) rather than every cell
     /// its box meets. With `subdivision`, crowded cells are then gridded again, top-down.
+    ///
+    /// `boxes`, when the caller has them, are the store's entries' boxes in store order
+    /// ([`EntryBoxes`]).
     pub fn build<P: Primitives>(
         prims: &P,
         store: PrimStore,
+        boxes: Option<Vec<Aabb>>,
         plans: &[GridPlan],
         prune: Prune,
         subdivision: Option<Subdivision>,
         simd: Simd,
     ) -> Result<GridHierarchy, SpecError> {
-        Self::build_in_slices(prims, store, plans, prune, subdivision, simd, SLICE_PAIRS)
+        Self::build_in_slices(
+            prims,
+            store,
+            boxes,
+            plans,
+            prune,
+            subdivision,
+            simd,
+            SLICE_PAIRS,
+        )
     }
 
     /// [`GridHierarchy::build`], binning and sorting at most about `slice_pairs` pairs at
@@ -247,18 +260,21 @@ impl GridHierarchy {
     /// size. The grids are the same, reference for reference (a test checks); the pairs,
     /// 16 bytes a reference while they are sorted where a reference takes 4, never exist all
     /// at once.
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn build_in_slices<P: Primitives>(
         prims: &P,
         store: PrimStore,
+        boxes: Option<Vec<Aabb>>,
         plans: &[GridPlan],
         prune: Prune,
         subdivision: Option<Subdivision>,
         simd: Simd,
         slice_pairs: u64,
     ) -> Result<GridHierarchy, SpecError> {
+        let boxes = EntryBoxes::new(prims, &store, boxes);
         let scene = (0..store.len() as u32)
             .into_par_iter()
-            .map(|s| store.bounds(prims, s))
+            .map(|s| boxes.get(s))
             .filter(finite)
             .reduce(|| Aabb::EMPTY, |a, b| a.union(&b));
         let margin = Self::margin_for(&scene);
@@ -290,7 +306,7 @@ impl GridHierarchy {
         // Boxes and resolutions bottom-up: a grid's box covers its children's.
         let mut items: Vec<Option<Items<P>>> = (0..plans.len()).map(|_| None).collect();
         for g in (0..plans.len()).rev() {
-            let it = Self::items(prims, &store, &frames, &grids, &plans[g], g, margin);
+            let it = Self::items(&boxes, &store, &frames, &grids, &plans[g], g, margin);
             // A root covers the whole scene: its box is the scene's, already known.
             let bounds = if plans[g].scene_box && plans[g].frame.is_none() {
                 scene
@@ -324,6 +340,7 @@ impl GridHierarchy {
         let binner = Binner {
             prims,
             store: &store,
+            boxes: &boxes,
             margin,
             prune_span: match prune {
                 Prune::None => u64::MAX,
@@ -395,9 +412,11 @@ impl GridHierarchy {
             }
             refs.shrink_to_fit();
             let cells = cells.finish(refs.len());
+            let bounds = CellBounds::build(&boxes, &grids, &cells, &refs);
+            drop(boxes);
             return Ok(GridHierarchy {
                 blocks: BlockIndex::new(&grids, &cells),
-                bounds: CellBounds::build(prims, &store, &grids, &cells, &refs),
+                bounds,
                 margin,
                 cells,
                 refs,
@@ -441,9 +460,11 @@ impl GridHierarchy {
                 (cells, pairs.par_iter().map(|&p| p as u32).collect())
             }
         };
+        let bounds = CellBounds::build(&boxes, &grids, &cells, &refs);
+        drop(boxes);
         Ok(GridHierarchy {
             blocks: BlockIndex::new(&grids, &cells),
-            bounds: CellBounds::build(prims, &store, &grids, &cells, &refs),
+            bounds,
             margin,
             store,
             grids,
@@ -492,8 +513,8 @@ impl GridHierarchy {
 
     /// The items grid `g` bins (four margins in a turned frame: the turn rounds too).
     pub(super) fn items<'a, P: Primitives>(
-        prims: &'a P,
-        store: &'a PrimStore,
+        boxes: &'a EntryBoxes<'a, P>,
+        store: &PrimStore,
         frames: &[Frame],
         grids: &[GridHeader],
         plan: &'a GridPlan,
@@ -504,7 +525,7 @@ impl GridHierarchy {
         let turned = frame.map(|f| {
             plan.objects
                 .par_iter()
-                .map(|&s| store.local_bounds(s, &f, &store.bounds(prims, s)))
+                .map(|&s| store.local_bounds(s, &f, &boxes.get(s)))
                 .collect()
         });
         let m = if frame.is_some() {
@@ -527,8 +548,7 @@ impl GridHierarchy {
             .collect();
         Items {
             objects: &plan.objects,
-            store,
-            prims,
+            boxes,
             turned,
             children,
             margin: m,
@@ -552,9 +572,14 @@ impl GridHierarchy {
             .sum()
     }
 
-    /// Visits every cell of `h` a box meets: its coordinates and its index within the grid.
-    pub(super) fn for_each_cell(h: &GridHeader, b: &Aabb, mut f: impl FnMut([u32; 3], usize)) {
-        let (lo, hi) = h.cell_range(b);
+    /// Visits the cells of `h` from `lo` to `hi` (the cells a box meets, its
+    /// [`GridHeader::cell_range`]): their coordinates and their indices within the grid.
+    pub(super) fn for_each_cell_of(
+        h: &GridHeader,
+        lo: [u32; 3],
+        hi: [u32; 3],
+        mut f: impl FnMut([u32; 3], usize),
+    ) {
         let (rx, ry) = (h.res[0] as usize, h.res[1] as usize);
         for z in lo[2]..=hi[2] {
             for y in lo[1]..=hi[1] {

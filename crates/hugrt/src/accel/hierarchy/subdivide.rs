@@ -103,8 +103,7 @@ impl GridHierarchy {
                         );
                         let it = Items {
                             objects: &objects,
-                            store: binner.store,
-                            prims: binner.prims,
+                            boxes: binner.boxes,
                             turned: None,
                             children: Vec::new(),
                             margin: binner.margin,

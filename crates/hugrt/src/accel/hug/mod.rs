@@ -428,8 +428,15 @@ impl Accel for Hug {
         let n = prims.len();
         let (store, boxes) = store_with_boxes(prims, settings.store)?;
         let (plans, report) = build::plan(&store, &boxes, &recipe);
-        drop(boxes);
-        let grids = GridHierarchy::build(prims, store, &plans, prune, None, settings.simd)?;
+        let grids = GridHierarchy::build(
+            prims,
+            store,
+            Some(boxes),
+            &plans,
+            prune,
+            None,
+            settings.simd,
+        )?;
         Ok(Hug {
             grids,
             report,
@@ -561,8 +568,16 @@ mod tests {
         for (name, prims, most) in [("terrain", &terrain, 0.6), ("room", &room, 0.6)] {
             let (store, boxes) = store_with_boxes(prims, TriangleStorage::Copy).unwrap();
             let (plans, _) = build::plan(&store, &boxes, &HugSettings::default().recipe());
-            let grids = GridHierarchy::build(prims, store, &plans, Prune::None, None, Simd::Widest)
-                .unwrap();
+            let grids = GridHierarchy::build(
+                prims,
+                store,
+                Some(boxes),
+                &plans,
+                Prune::None,
+                None,
+                Simd::Widest,
+            )
+            .unwrap();
             let cells = grids.cell_boxes();
             assert!(cells.len() > 100, "{name}: {} cells", cells.len());
             let mut share = 0f32;
@@ -632,9 +647,12 @@ mod tests {
             let (store, boxes) = store_with_boxes(&scene, TriangleStorage::Copy).unwrap();
             let (plans, _) = build::plan(&store, &boxes, &settings.recipe());
             let cutting = subdivision.is_some();
+            // The boxes recomputed by the build, where the tests above hand them over.
+            drop(boxes);
             let grids = GridHierarchy::build(
                 &scene,
                 store,
+                None,
                 &plans,
                 Prune::None,
                 subdivision,
@@ -687,6 +705,7 @@ mod tests {
                     let grids = GridHierarchy::build_in_slices(
                         prims,
                         store,
+                        Some(boxes),
                         &plans,
                         prune,
                         None,
