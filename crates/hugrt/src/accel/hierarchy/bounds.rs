@@ -49,7 +49,8 @@ pub(super) struct CellBounds {
 
 impl CellBounds {
     /// The boxes of the occupied cells of `grids`: for each, the union of its objects' boxes
-    /// (store entries of `refs`, their boxes read from `entries`), each clipped to the cell, rounded outwards to [`STEPS`].
+    /// (store entries of `refs`, their boxes read from `entries`), each clipped to the cell,
+    /// rounded outwards to [`STEPS`].
     pub(super) fn build<P: Primitives>(
         entries: &EntryBoxes<'_, P>,
         grids: &[GridHeader],
