@@ -111,7 +111,8 @@ impl Node {
 pub struct BvhSettings {
     /// Most primitives a leaf holds when the SAH does not split it (at most 16).
     pub leaf: usize,
-    /// SAH bins per axis (2 to 32).
+    /// SAH bins per axis (2 to 32), at most: a node of `n` items takes `4 + n/20` when fewer
+    /// (`build::bins_for`).
     pub bins: usize,
     /// Cost of a traversal step relative to a block test, for the SAH.
     pub traversal: f32,
@@ -141,7 +142,7 @@ impl Default for BvhSettings {
 impl Settings for BvhSettings {
     const KEYS: &'static [Key<Self>] = &[
         key!("leaf", leaf: usize, 1..=MAX_LEAF, "most primitives a leaf holds when the SAH does not split it"),
-        key!("bins", bins: usize, 2..=MAX_BINS, "SAH bins per axis"),
+        key!("bins", bins: usize, 2..=MAX_BINS, "SAH bins per axis, at most (a node of n items takes 4 + n/20 when fewer)"),
         key!("traversal", traversal: f32, 0.0..=100.0, "cost of a traversal step relative to a block test, for the SAH"),
         key!("spatial", spatial: f32, 0.0..=4.0, "spatial splits (SBVH): extra references allowed, as a fraction of the primitives (0: none)"),
         key!("store", store: TriangleStorage, (), STORAGE_HELP),
