@@ -2,15 +2,16 @@
 //! form is the one Embree and every production renderer use):
 //!
 //! * Build: binary cuts by binned surface-area heuristic (Wald, "On fast construction of
-//!   SAH-based bounding volume hierarchies", 2007) over the primitives' box centres, `bins`
-//!   bins per axis, subtrees built in parallel, on 32-byte items and four-lane boxes (as
-//!   Embree's `PrimRef`), gathered four children to a node by opening, again and again, the
-//!   child of largest surface area. The nodes of four are made as the cuts are decided
-//!   ([`wide`]), without a binary tree between them. A leaf's cost is its number of blocks of
-//!   four, full or not (as Embree counts its four-triangle leaves), so leaves fill their
-//!   blocks where the areas allow. With `spatial` above 0, nodes may instead cut space and
-//!   share a straddling triangle between both sides (SBVH, [`spatial`]); that build makes a
-//!   binary tree and collapses it ([`flatten`]).
+//!   SAH-based bounding volume hierarchies", 2007) over the primitives' box centres, at most
+//!   `bins` bins per axis (`4 + n/20` for a node of `n` items), subtrees built in parallel,
+//!   on 32-byte items and four-lane boxes (as Embree's `PrimRef`), gathered four children to
+//!   a node by opening, again and again, the child of largest surface area. The nodes of
+//!   four are made as the cuts are decided ([`wide`]), without a binary tree between them.
+//!   A leaf's cost is its number of blocks of four, full or not (as Embree counts its
+//!   four-triangle leaves), so leaves fill their blocks where the areas allow. With
+//!   `spatial` above 0, nodes may instead cut space and share a straddling triangle between
+//!   both sides (SBVH, [`spatial`]); that build makes a binary tree and collapses it
+//!   ([`flatten`]).
 //! * Nodes hold their four children's boxes as six rows of four lanes, so one ray meets all
 //!   four boxes in one pass of lane-wise arithmetic that the compiler turns into SIMD on every
 //!   target (no `unsafe`); leaves hold up to `leaf` primitives as [`Block`]s of four
