@@ -87,6 +87,26 @@ crate::accel::settings::choice_value!(Simd {
     Simd::Off => "false",
 });
 
+/// The four lanes of `v` truncated towards zero, for lanes already clamped to `i32`'s range
+/// (NaN excluded): what `x as i32` gives each of them, in one SSE2 conversion (`cvttps2dq`)
+/// where `as i32` tests each lane for NaN and overflow apart (six instructions a lane). The
+/// bvh's binning converts three lanes an item a level; the bunny's bvh build took
+/// 174.9 M → 157.7 M instructions with it (`docs/measurements.md`).
+#[inline(always)]
+pub(crate) fn truncate_lanes(v: glam::Vec4) -> [i32; 4] {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{_mm_cvttps_epi32, _mm_storeu_si128};
+        let mut out = [0i32; 4];
+        // SAFETY: both intrinsics need SSE2, part of every x86_64 target's baseline; the
+        // store writes 16 bytes, without alignment, to `out`, which is 16 bytes long.
+        unsafe { _mm_storeu_si128(out.as_mut_ptr().cast(), _mm_cvttps_epi32(v.into())) };
+        out
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    v.to_array().map(|x| x as i32)
+}
+
 /// Asks the cache for the line holding `p`, a hint that never faults whatever the address
 /// (so `p` may come from `wrapping_add` past an end), and does nothing off x86-64.
 #[inline(always)]
@@ -296,4 +316,21 @@ pub unsafe fn triangles8(source: Source<'_>, idx: &[u32; 8], ray: &PreparedRay) 
     let w = _mm256_sub_ps(_mm256_mul_ps(bx, ay), _mm256_mul_ps(by, ax));
     let (crossed, scalar) = edge_masks!(u, v, w);
     Lanes { crossed, scalar }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::truncate_lanes;
+    use glam::Vec4;
+
+    #[test]
+    fn truncated_lanes_are_what_as_i32_gives() {
+        let values = [
+            0.0, -0.0, 0.49, 0.5, 0.99, 1.0, 1.5, 15.999, 31.0, 31.99, -1.5, 1e9,
+        ];
+        for w in values.windows(4) {
+            let v = Vec4::new(w[0], w[1], w[2], w[3]);
+            assert_eq!(truncate_lanes(v), v.to_array().map(|x| x as i32), "{v}");
+        }
+    }
 }

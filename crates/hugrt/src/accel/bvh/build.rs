@@ -3,6 +3,7 @@
 
 use super::flatten::{PARALLEL_FLATTEN, four};
 use super::{LANES, MEDIAN_DEPTH};
+use crate::accel::simd;
 use crate::geometry::{Aabb, Vec3};
 use glam::Vec4;
 /// The binary tree of the build.
@@ -310,9 +311,10 @@ impl Builder {
             // NaN (an axis of no extent: 0·∞) and overflow clamp into the bins (`maxps`
             // answers its second operand for a NaN).
             let k = ((it.centre() - low) * scale).max(Vec4::ZERO).min(last);
+            let k = simd::truncate_lanes(k);
             let b = it.bounds();
-            for (axis, x) in k.to_array().into_iter().take(3).enumerate() {
-                bins.add(axis * nb + x as i32 as usize, &b);
+            for (axis, &x) in k.iter().take(3).enumerate() {
+                bins.add(axis * nb + x as usize, &b);
             }
         };
         // Neighbouring items tend to fall in the same bins (the store is in Morton order), so
