@@ -2,8 +2,9 @@
 //! its cells start among all grids' cells.
 
 use super::NO_FRAME;
-use crate::accel::Frame;
+use crate::accel::{Frame, simd};
 use crate::geometry::{Aabb, Vec3};
+use glam::Vec4;
 
 /// `1 + 2·gamma(3)` of Ize ("Robust BVH Ray Traversal", JCGT 2013): scaling the far slab
 /// distance by it makes the slab test conservative under rounding.
@@ -61,11 +62,16 @@ impl GridHeader {
         (c.max(0.0) as u32).min(self.res[a] - 1)
     }
 
+    /// The cells `b` meets, from its low corner's to its high corner's: each coordinate as
+    /// [`GridHeader::coord`] makes it, the three axes converted at once
+    /// ([`simd::truncate_lanes`]).
     pub(super) fn cell_range(&self, b: &Aabb) -> ([u32; 3], [u32; 3]) {
-        (
-            [0, 1, 2].map(|a| self.coord(a, b.min[a])),
-            [0, 1, 2].map(|a| self.coord(a, b.max[a])),
-        )
+        let cells = |p: Vec3| -> [u32; 3] {
+            let c = Vec4::from(((p - self.min) * self.inv_size, 0.0)).max(Vec4::ZERO);
+            let c = simd::truncate_lanes(c);
+            std::array::from_fn(|a| (c[a] as u32).min(self.res[a] - 1))
+        };
+        (cells(b.min), cells(b.max))
     }
 
     pub(super) fn cell_box(&self, c: [u32; 3]) -> Aabb {

@@ -6,7 +6,9 @@
 //! would make an algorithm quadratic, a work budget stops the refinement and keeps coarser
 //! clusters, and the build stays `O(n log n)`.
 
+use crate::accel::simd;
 use crate::accel::sort::radix_sort_high32;
+use glam::Vec4;
 use rayon::prelude::*;
 use std::ops::Range;
 use std::sync::atomic::AtomicU32;
@@ -284,19 +286,20 @@ pub fn graph_components(
         // The cells of a grown box along each axis. Monotone in the coordinate, so the cell
         // of the larger of two coordinates is the larger of their cells.
         let range = |res: [u32; 3], it: &Item| -> ([u32; 3], [u32; 3]) {
+            // The three axes at once, each lane `((x - lo) / e · res)` clamped to the grid as
+            // one axis at a time would make it: an axis of no extent gives 0/0, a NaN that
+            // `max` turns into 0 (its second operand), where it was tested for apart. One axis
+            // at a time, this was nearly a third of the clustering's instructions.
             let it = &grown(it);
-            let c = |x: f32, a: usize| {
-                let e = extent[a];
-                if e <= 0.0 {
-                    0
-                } else {
-                    (((x - lo[a]) / e * res[a] as f32).max(0.0) as u32).min(res[a] - 1)
-                }
+            let low = Vec4::new(lo[0], lo[1], lo[2], 0.0);
+            let e = Vec4::from((extent, 1.0));
+            let r = Vec4::new(res[0] as f32, res[1] as f32, res[2] as f32, 0.0);
+            let cell = |x: [f32; 3]| -> [u32; 3] {
+                let x = Vec4::new(x[0], x[1], x[2], 0.0);
+                let c = simd::truncate_lanes(((x - low) / e * r).max(Vec4::ZERO));
+                std::array::from_fn(|a| (c[a] as u32).min(res[a] - 1))
             };
-            (
-                std::array::from_fn(|a| c(it.lo[a], a)),
-                std::array::from_fn(|a| c(it.hi[a], a)),
-            )
+            (cell(it.lo), cell(it.hi))
         };
         let volume = |(l, h): ([u32; 3], [u32; 3])| -> u64 {
             (0..3).map(|a| (h[a] - l[a] + 1) as u64).product()
