@@ -535,15 +535,30 @@ pub(super) fn partition(
     axis: usize,
     position: f32,
 ) -> Option<(usize, Extents, Extents)> {
+    // One loop per axis: the axis chosen inside the loop was a branch per item.
+    match axis {
+        0 => partition_on::<0>(items, position),
+        1 => partition_on::<1>(items, position),
+        _ => partition_on::<2>(items, position),
+    }
+}
+
+/// [`partition`] on axis `AXIS`.
+fn partition_on<const AXIS: usize>(
+    items: &mut [Item],
+    position: f32,
+) -> Option<(usize, Extents, Extents)> {
     let mut left = (Bounds::EMPTY, Bounds::EMPTY);
     let mut right = (Bounds::EMPTY, Bounds::EMPTY);
     let mut i = 0;
     for j in 0..items.len() {
         let it = items[j];
         let c = it.centre();
-        if c[axis] < position {
+        if c[AXIS] < position {
             left = (left.0.union(&it.bounds()), left.1.grow(c));
-            items.swap(i, j);
+            // The swap of `i` and `j`, with item `j` already at hand.
+            items[j] = items[i];
+            items[i] = it;
             i += 1;
         } else {
             right = (right.0.union(&it.bounds()), right.1.grow(c));
