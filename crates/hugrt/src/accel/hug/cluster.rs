@@ -429,26 +429,33 @@ pub fn graph_components(
         );
     }
     // The clusters in the order of their least object (its root), objects in their order.
-    let mut keys: Vec<u64> = (0..n as u32)
-        .into_par_iter()
-        .map(|i| (find(&parent, i) as u64) << 32 | i as u64)
-        .collect();
-    drop(parent);
-    radix_sort_high32(&mut keys);
-    let copy = items.to_vec();
-    items
-        .par_iter_mut()
-        .zip(&keys)
-        .for_each(|(it, &k)| *it = copy[(k & 0xffff_ffff) as usize]);
-    let mut out = Vec::new();
-    let mut first = 0;
-    for i in 0..n {
-        if i + 1 == n || keys[i + 1] >> 32 != keys[i] >> 32 {
-            out.push(first..i + 1);
-            first = i + 1;
-        }
+    // Every link points to a smaller index (`union`; `find` halves paths to ancestors), so
+    // one pass in index order finds each object's root from its parent's, found before it:
+    // no `find`, whose halving stores from two threads contended for the same lines (the
+    // four kitchens' regrouping took longer on two threads than on one). Then a counting
+    // sort by root, which lists each cluster's objects in their order.
+    let mut root = Vec::with_capacity(n);
+    for (i, p) in parent.into_iter().enumerate() {
+        let p = p.into_inner() as usize;
+        root.push(if p == i { i as u32 } else { root[p] });
     }
-    out
+    let mut start = vec![0u32; n + 1];
+    for &r in &root {
+        start[r as usize + 1] += 1;
+    }
+    for r in 0..n {
+        start[r + 1] += start[r];
+    }
+    let copy = items.to_vec();
+    let mut at = start.clone();
+    for (it, &r) in copy.iter().zip(&root) {
+        items[at[r as usize] as usize] = *it;
+        at[r as usize] += 1;
+    }
+    (0..n)
+        .filter(|&r| start[r + 1] > start[r])
+        .map(|r| start[r] as usize..start[r + 1] as usize)
+        .collect()
 }
 
 #[cfg(test)]
