@@ -153,13 +153,17 @@ fn cell_box<P: Primitives>(
         return [u16::MAX, u16::MAX, u16::MAX, 0, 0, 0];
     }
     let scale = Vec3::splat(STEPS) / h.size;
-    let qlo = ((lo - cell.min) * scale).floor();
-    let qhi = ((hi - cell.min) * scale).ceil();
-    // Clamped to the cell, and outwards where a step is not a number.
+    let qlo = (lo - cell.min) * scale;
+    let qhi = (hi - cell.min) * scale;
+    // The steps' floor and ceiling, clamped to the cell, and outwards where a step is not a
+    // number. The values are not negative (`lo` and `hi` lie above the cell's corner), so the
+    // truncating casts are the floor: `f32::floor` and `ceil` are calls to software routines
+    // without SSE4.1 (the baseline).
     let low = |x: f32| if x > 0.0 { x.min(STEPS) as u16 } else { 0 };
     let high = |x: f32| {
         if x < STEPS {
-            x.max(0.0) as u16
+            let t = x.max(0.0) as u16;
+            t + ((t as f32) < x) as u16
         } else {
             u16::MAX
         }
