@@ -24,3 +24,17 @@ pub use sphere::Sphere;
 pub use triangle::{barycentric, crossing_t, intersect_triangle};
 
 pub use glam::Vec3;
+
+/// The lesser of two numbers, without `f32::min`'s (or `f64::min`'s) care for NaN, which
+/// costs a comparison and a blend more: for values that are never NaN (a NaN gives the
+/// second operand).
+#[inline(always)]
+pub(crate) fn lesser<T: PartialOrd>(a: T, b: T) -> T {
+    if a < b { a } else { b }
+}
+
+/// The greater of two numbers, as [`lesser`].
+#[inline(always)]
+pub(crate) fn greater<T: PartialOrd>(a: T, b: T) -> T {
+    if a > b { a } else { b }
+}

@@ -1,4 +1,4 @@
-use super::{Aabb, Cone, PreparedRay, Sphere, barycentric, intersect_triangle};
+use super::{Aabb, Cone, PreparedRay, Sphere, barycentric, greater, intersect_triangle, lesser};
 use glam::{DVec3, Vec3};
 
 /// One primitive of a scene. Polygons are stored as the triangles of their triangulation;
@@ -336,18 +336,6 @@ impl TriangleCellTest {
             }
         }
     }
-}
-
-/// The lesser of two numbers that are not NaN (without `f64::min`'s care for NaN).
-#[inline(always)]
-fn lesser(a: f64, b: f64) -> f64 {
-    if a < b { a } else { b }
-}
-
-/// The greater of two numbers that are not NaN.
-#[inline(always)]
-fn greater(a: f64, b: f64) -> f64 {
-    if a > b { a } else { b }
 }
 
 #[cfg(test)]

@@ -40,7 +40,11 @@ use super::{Frame, GRID_TAG, GridHierarchy, NO_FRAME};
 use crate::accel::block::{Block, BlockRay, BlockRays, LANES, Lanes as Lanes8};
 use crate::accel::packet::{MAX_PACKET, PACKET, each_lane};
 use crate::accel::{Counters, HitSink, Mailbox, Primitives};
-use crate::geometry::{PreparedRay, Ray, Vec3, crossing_t, intersect_triangle};
+// The lanes' lesser and greater without `f32::min`'s care for NaN (`min` and `max` were 17%
+// of the bunny's packet walk): the lanes they compare are never NaN, since a ray's segment
+// ends are finite where it walks the grid, and the lanes of rays outside a slice, where they
+// may not be, are replaced after.
+use crate::geometry::{PreparedRay, Ray, Vec3, crossing_t, greater, intersect_triangle, lesser};
 
 /// How far each ray's rectangle of cells is widened in a slice: this fraction of the largest
 /// magnitude among its origin, the grid's box and its travel `|t|·|d|` (16 ulps of it, where
@@ -91,21 +95,6 @@ fn meets_lanes(
 const GROUPS: usize = GRID_PACKET / PACKET;
 
 type Lanes = [f32; GRID_PACKET];
-
-/// The lesser of two values without `f32::min`'s care for NaN (which costs a comparison and a
-/// blend a lane more: `min` and `max` were 17% of the bunny's packet walk). The lanes it
-/// compares are never NaN: a ray's segment ends are finite where it walks the grid, and the
-/// lanes of rays outside a slice, where they may not be, are replaced after.
-#[inline(always)]
-fn lesser(a: f32, b: f32) -> f32 {
-    if a < b { a } else { b }
-}
-
-/// The greater of two values, as [`lesser`].
-#[inline(always)]
-fn greater(a: f32, b: f32) -> f32 {
-    if a > b { a } else { b }
-}
 
 /// A row of lanes reduced by `pick` (the lesser or the greater): eight columns first,
 /// lane-wise (a register at a time), then the eight; folded one lane after another, the chain
