@@ -28,6 +28,7 @@ use super::Frame;
 use super::sort::radix_sort_high32;
 use super::{Counters, HitSink, PrimitiveKind, Primitives, Reach, simd};
 use crate::geometry::{Aabb, Cone, PreparedRay, Sphere, Vec3, crossing_t, intersect_triangle};
+use glam::{BVec4A, Vec4};
 use rayon::prelude::*;
 
 /// How a store holds the triangles (the grid structures' `store` key).
@@ -153,7 +154,7 @@ pub(crate) fn indexed_mesh<P: Primitives>(prims: &P) -> Option<std::sync::Arc<Ve
 }
 
 /// Spreads the low 10 bits of `x` to every third bit.
-fn spread3(x: u32) -> u32 {
+const fn spread3(x: u32) -> u32 {
     let mut x = x & 0x3ff;
     x = (x | x << 16) & 0x0300_00ff;
     x = (x | x << 8) & 0x0300_f00f;
@@ -162,17 +163,54 @@ fn spread3(x: u32) -> u32 {
     x
 }
 
-/// 30-bit Morton code of `p` inside `b` (10 bits per axis, clamped to the box).
-fn morton(p: Vec3, b: &Aabb) -> u32 {
-    let e = b.extent();
-    let scale = |a: usize| {
-        if e[a] > 0.0 {
-            (((p[a] - b.min[a]) / e[a]).clamp(0.0, 1.0) * 1023.0) as u32
-        } else {
-            0
+/// [`spread3`] of every 10-bit value: three loads from 4 KB a code rather than three
+/// dozen shifts and masks.
+static SPREAD3: [u32; 1024] = {
+    let mut t = [0u32; 1024];
+    let mut x = 0;
+    while x < 1024 {
+        t[x] = spread3(x as u32);
+        x += 1;
+    }
+    t
+};
+
+/// 30-bit Morton codes (10 bits per axis) of points inside a box, clamped to it. The three
+/// axes are scaled in one vector (each lane `((p − min) / extent).clamp(0, 1) · 1023`, the
+/// same operations on the same numbers as one axis at a time, so the same codes); an axis
+/// of no extent, or an empty box, gives 0 along it. One axis at a time, with the box's
+/// extent found again for every code, the codes took 213 instructions a primitive: the four
+/// kitchens' store took 44.8 M instructions, 31.4 M with the frame (their grid's whole build
+/// 125.5 M → 112.1 M).
+struct MortonFrame {
+    min: Vec4,
+    /// The box's extent, 1 along the axes that get 0.
+    extent: Vec4,
+    /// The axes of positive extent.
+    live: BVec4A,
+}
+
+impl MortonFrame {
+    fn new(b: &Aabb) -> MortonFrame {
+        let e = b.extent();
+        let live = Vec4::from((e, 0.0)).cmpgt(Vec4::ZERO);
+        MortonFrame {
+            min: Vec4::select(live, Vec4::from((b.min, 0.0)), Vec4::ZERO),
+            extent: Vec4::select(live, Vec4::from((e, 1.0)), Vec4::ONE),
+            live,
         }
-    };
-    spread3(scale(0)) | spread3(scale(1)) << 1 | spread3(scale(2)) << 2
+    }
+
+    fn code(&self, p: Vec3) -> u32 {
+        let q = ((Vec4::from((p, 0.0)) - self.min) / self.extent)
+            .max(Vec4::ZERO)
+            .min(Vec4::ONE)
+            * 1023.0;
+        let c = simd::truncate_lanes(Vec4::select(self.live, q, Vec4::ZERO));
+        SPREAD3[c[0] as usize & 0x3ff]
+            | SPREAD3[c[1] as usize & 0x3ff] << 1
+            | SPREAD3[c[2] as usize & 0x3ff] << 2
+    }
 }
 
 impl PrimStore {
@@ -208,6 +246,7 @@ impl PrimStore {
         // pass over every primitive (with the scene's boxes read without copying its shapes,
         // the bunny's store took 1.7 ms rather than 3.6).
         const CHUNK: usize = 4096;
+        let frame = MortonFrame::new(&sample);
         let mut keys = vec![0u64; n];
         let reach = keys
             .par_chunks_mut(CHUNK)
@@ -219,7 +258,7 @@ impl PrimStore {
                     let b = prims.bounds(i);
                     let code = if finite(&b) {
                         union = union.union(&b);
-                        morton(b.center(), &sample)
+                        frame.code(b.center())
                     } else {
                         (1 << 30) - 1
                     };
@@ -628,11 +667,58 @@ mod tests {
     fn morton_interleaves_axes() {
         assert_eq!(spread3(0b11), 0b1001);
         assert_eq!(spread3(0x3ff), 0x0924_9249);
-        let b = Aabb::new(Vec3::ZERO, Vec3::ONE);
-        assert_eq!(morton(Vec3::ZERO, &b), 0);
-        assert!(morton(Vec3::new(1.0, 0.0, 0.0), &b) < morton(Vec3::new(0.0, 1.0, 0.0), &b));
-        assert!(morton(Vec3::new(0.0, 1.0, 0.0), &b) < morton(Vec3::new(0.0, 0.0, 1.0), &b));
-        assert_eq!(morton(Vec3::ONE, &b), (1 << 30) - 1);
-        assert_eq!(morton(Vec3::splat(7.0), &b), (1 << 30) - 1, "clamped");
+        let b = MortonFrame::new(&Aabb::new(Vec3::ZERO, Vec3::ONE));
+        assert_eq!(b.code(Vec3::ZERO), 0);
+        assert!(b.code(Vec3::new(1.0, 0.0, 0.0)) < b.code(Vec3::new(0.0, 1.0, 0.0)));
+        assert!(b.code(Vec3::new(0.0, 1.0, 0.0)) < b.code(Vec3::new(0.0, 0.0, 1.0)));
+        assert_eq!(b.code(Vec3::ONE), (1 << 30) - 1);
+        assert_eq!(b.code(Vec3::splat(7.0)), (1 << 30) - 1, "clamped");
+    }
+
+    /// The codes one axis at a time, as the store took them before the frame's vector.
+    fn morton_by_axis(p: Vec3, b: &Aabb) -> u32 {
+        let e = b.extent();
+        let scale = |a: usize| {
+            if e[a] > 0.0 {
+                (((p[a] - b.min[a]) / e[a]).clamp(0.0, 1.0) * 1023.0) as u32
+            } else {
+                0
+            }
+        };
+        spread3(scale(0)) | spread3(scale(1)) << 1 | spread3(scale(2)) << 2
+    }
+
+    #[test]
+    fn morton_codes_are_those_of_one_axis_at_a_time() {
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let boxes = [
+            Aabb::new(Vec3::new(-3.0, 1.0, 0.5), Vec3::new(5.0, 1.25, 900.0)),
+            // Flat along y, a point along z: those axes give 0.
+            Aabb::new(Vec3::new(0.0, 2.0, 7.0), Vec3::new(1.0, 2.0, 7.0)),
+            Aabb::EMPTY,
+        ];
+        for b in &boxes {
+            let frame = MortonFrame::new(b);
+            let (lo, e) = if b.is_empty() {
+                (Vec3::ZERO, Vec3::ONE)
+            } else {
+                (b.min, b.extent())
+            };
+            for _ in 0..10_000 {
+                // Points inside and up to half the box's size outside it on every side.
+                let t = Vec3::new(next(), next(), next()) * 2.0 - 0.5;
+                let p = lo + t * e;
+                assert_eq!(frame.code(p), morton_by_axis(p, b), "{p} in {b:?}");
+            }
+            for p in [lo, lo + e, Vec3::splat(f32::INFINITY), Vec3::splat(-1e30)] {
+                assert_eq!(frame.code(p), morton_by_axis(p, b), "{p} in {b:?}");
+            }
+        }
     }
 }

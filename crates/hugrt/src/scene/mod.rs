@@ -22,6 +22,7 @@ pub use terrain::Terrain;
 
 use crate::accel::{PrimitiveKind, Primitives};
 use crate::geometry::{Aabb, PreparedRay, Shape, Vec3};
+use rayon::prelude::*;
 use std::io::Read;
 use std::path::Path;
 
@@ -417,16 +418,30 @@ impl Scene {
         }];
     }
 
+    /// The box of every primitive (NaN coordinates left out, as `f32::min` leaves them). A
+    /// render asks for it once per frame, so it is folded on every thread (the four kitchens'
+    /// 115,284 primitives took 7.0 M instructions on one thread, about 1 ms of a 512² frame's
+    /// 30): in order, and `min` and `max` pick the same one of two equal values (their sign of
+    /// zero) whichever way an in-order sequence is grouped, so the box is bit for bit one
+    /// thread's fold.
     pub fn bounds(&self) -> Aabb {
+        let union = |a: Aabb, b: Aabb| a.union(&b);
         let shapes = self
             .shapes
-            .iter()
-            .fold(Aabb::EMPTY, |b, s| b.union(&s.bounds()));
-        self.mesh
+            .par_iter()
+            .fold(|| Aabb::EMPTY, |b, s| b.union(&s.bounds()))
+            .reduce(|| Aabb::EMPTY, union);
+        let vertices = self.mesh.vertices();
+        let mesh = self
+            .mesh
             .triangles()
-            .iter()
-            .flatten()
-            .fold(shapes, |b, &k| b.grow(self.mesh.vertices()[k as usize]))
+            .par_iter()
+            .fold(
+                || Aabb::EMPTY,
+                |b, t| t.iter().fold(b, |b, &k| b.grow(vertices[k as usize])),
+            )
+            .reduce(|| Aabb::EMPTY, union);
+        shapes.union(&mesh)
     }
 
     pub fn material(&self, prim: u32) -> &Material {
@@ -581,5 +596,46 @@ pub(crate) fn finite(x: f32) -> Result<f32, String> {
         Err("coordinate is infinite".into())
     } else {
         Ok(x)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bounds_are_one_threads_fold_bit_for_bit() {
+        // Many primitives (so that the threads split them), zeros of both signs tied for the
+        // least and greatest coordinates, and NaN coordinates, which the box leaves out.
+        let mut triangles = Vec::new();
+        let mut shapes = Vec::new();
+        for i in 0..50_000u32 {
+            let z = if i % 3 == 0 { -0.0 } else { 0.0 };
+            let a = Vec3::new(z, (i % 7) as f32, -z);
+            let b = Vec3::new(1.0 + (i % 5) as f32, z, 2.0);
+            let c = if i % 1000 == 17 {
+                Vec3::new(f32::NAN, 1.0, z)
+            } else {
+                Vec3::new(z, 3.0, z)
+            };
+            triangles.push([a, b, c]);
+            shapes.push(Shape::Triangle([c, a, b]));
+        }
+        let mut scene = Scene::from_triangles(triangles);
+        scene.shapes = shapes;
+        let one = scene
+            .shapes
+            .iter()
+            .fold(Aabb::EMPTY, |b, s| b.union(&s.bounds()));
+        let one = scene
+            .mesh
+            .triangles()
+            .iter()
+            .flatten()
+            .fold(one, |b, &k| b.grow(scene.mesh.vertices()[k as usize]));
+        let bits = |b: Aabb| [b.min.to_array(), b.max.to_array()].map(|v| v.map(f32::to_bits));
+        for _ in 0..20 {
+            assert_eq!(bits(scene.bounds()), bits(one));
+        }
     }
 }
