@@ -285,21 +285,24 @@ pub fn graph_components(
         let mut res = crate::accel::cubical_resolution(extent, 2.0 * n as f64);
         // The cells of a grown box along each axis. Monotone in the coordinate, so the cell
         // of the larger of two coordinates is the larger of their cells.
+        let (low, e) = (
+            Vec4::new(lo[0], lo[1], lo[2], 0.0),
+            Vec4::from((extent, 1.0)),
+        );
+        let grow = Vec4::new(h, h, h, 0.0);
         let range = |res: [u32; 3], it: &Item| -> ([u32; 3], [u32; 3]) {
-            // The three axes at once, each lane `((x - lo) / e · res)` clamped to the grid as
-            // one axis at a time would make it: an axis of no extent gives 0/0, a NaN that
-            // `max` turns into 0 (its second operand), where it was tested for apart. One axis
-            // at a time, this was nearly a third of the clustering's instructions.
-            let it = &grown(it);
-            let low = Vec4::new(lo[0], lo[1], lo[2], 0.0);
-            let e = Vec4::from((extent, 1.0));
+            // The three axes at once, each lane `((x ∓ h - lo) / e · res)` clamped to the grid
+            // as one axis at a time would make it (the box grown, as `grown` grows it): an
+            // axis of no extent gives 0/0, a NaN that `max` turns into 0 (its second
+            // operand), where it was tested for apart. One axis at a time, this was nearly a
+            // third of the clustering's instructions.
             let r = Vec4::new(res[0] as f32, res[1] as f32, res[2] as f32, 0.0);
-            let cell = |x: [f32; 3]| -> [u32; 3] {
-                let x = Vec4::new(x[0], x[1], x[2], 0.0);
+            let cell = |x: Vec4| -> [u32; 3] {
                 let c = simd::truncate_lanes(((x - low) / e * r).max(Vec4::ZERO));
                 std::array::from_fn(|a| (c[a] as u32).min(res[a] - 1))
             };
-            (cell(it.lo), cell(it.hi))
+            let corner = |x: [f32; 3]| Vec4::new(x[0], x[1], x[2], 0.0);
+            (cell(corner(it.lo) - grow), cell(corner(it.hi) + grow))
         };
         let volume = |(l, h): ([u32; 3], [u32; 3])| -> u64 {
             (0..3).map(|a| (h[a] - l[a] + 1) as u64).product()
