@@ -179,20 +179,32 @@ fn by_direction(rays: &[Ray], group: usize) -> Option<Vec<u32>> {
         .fold(Vec3::ZERO, |s, r| s + r.dir)
         .abs()
         .max_position();
-    let (u, v) = ((major + 1) % 3, (major + 2) % 3);
     // A slope that is not finite (a direction across the major axis) is NaN, which the
-    // extent ignores and the cell's cast makes 0.
-    let mut slopes = Vec::with_capacity(rays.len());
+    // extent ignores and the cell's cast makes 0. Each direction is turned so that the major
+    // axis comes first (one branch, the same for the whole window) rather than indexed by
+    // the axis: indexed, the loop kept its state on the stack, 60 instructions a ray, and the
+    // city's and the kitchen's shadow rays took 1.9% more instructions in all.
+    let turn = |d: Vec3| match major {
+        0 => d,
+        1 => Vec3::new(d.y, d.z, d.x),
+        _ => Vec3::new(d.z, d.x, d.y),
+    };
+    let slopes: Vec<[f32; 2]> = rays
+        .iter()
+        .map(|r| {
+            let d = turn(r.dir);
+            let across = 1.0 / d.x;
+            [d.y * across, d.z * across].map(|x| if x.is_finite() { x } else { f32::NAN })
+        })
+        .collect();
+    // `f32::min` and `max` as comparisons: NaN fails them and is left out, as `min` leaves
+    // it, and `lo` and `hi` are never NaN.
     let (mut lo, mut hi) = ([f32::INFINITY; 2], [f32::NEG_INFINITY; 2]);
-    for r in rays {
-        let d = r.dir.to_array();
-        let across = 1.0 / d[major];
-        let s = [d[u] * across, d[v] * across].map(|x| if x.is_finite() { x } else { f32::NAN });
+    for s in &slopes {
         for k in 0..2 {
-            lo[k] = lo[k].min(s[k]);
-            hi[k] = hi[k].max(s[k]);
+            lo[k] = if s[k] < lo[k] { s[k] } else { lo[k] };
+            hi[k] = if s[k] > hi[k] { s[k] } else { hi[k] };
         }
-        slopes.push(s);
     }
     let extent = (hi[0] - lo[0]).max(hi[1] - lo[1]);
     if !(extent > 0.0 && extent.is_finite()) {
