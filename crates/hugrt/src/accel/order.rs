@@ -24,7 +24,7 @@
 
 use super::Ray;
 use super::packet::coherent;
-use crate::geometry::Vec3;
+use crate::geometry::{Vec3, greater, lesser};
 
 /// Columns of a camera's tile: four, so that each group of eight rays of the packet kernels
 /// is a 4 × 2 block. Measured against 8 × 4 and 16 × 2 tiles (`docs/measurements.md`).
@@ -197,13 +197,14 @@ fn by_direction(rays: &[Ray], group: usize) -> Option<Vec<u32>> {
             [d.y * across, d.z * across].map(|x| if x.is_finite() { x } else { f32::NAN })
         })
         .collect();
-    // `f32::min` and `max` as comparisons: NaN fails them and is left out, as `min` leaves
-    // it, and `lo` and `hi` are never NaN.
+    // `lesser` and `greater` rather than `f32::min` and `max`: a NaN slope, their first
+    // operand, gives the second, so it is left out as `min` leaves it, and `lo` and `hi` are
+    // never NaN.
     let (mut lo, mut hi) = ([f32::INFINITY; 2], [f32::NEG_INFINITY; 2]);
     for s in &slopes {
         for k in 0..2 {
-            lo[k] = if s[k] < lo[k] { s[k] } else { lo[k] };
-            hi[k] = if s[k] > hi[k] { s[k] } else { hi[k] };
+            lo[k] = lesser(s[k], lo[k]);
+            hi[k] = greater(s[k], hi[k]);
         }
     }
     let extent = (hi[0] - lo[0]).max(hi[1] - lo[1]);
