@@ -1,8 +1,10 @@
 use glam::Vec3;
 
 /// A ray `origin + t * dir` for `t` in `[tmin, tmax]`. The direction need not be unit length:
-/// every `t` reported by hugrt is in units of `dir`.
+/// every `t` reported by hugrt is in units of `dir`. Laid out as eight `f32` in field order
+/// (`repr(C)`), so that a packet reads a ray whole into a register.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C)]
 pub struct Ray {
     pub origin: Vec3,
     pub dir: Vec3,

@@ -35,6 +35,7 @@
 //! may not) is walked ray by ray.
 
 use super::cells::BLOCK;
+use super::header::any_meets;
 use super::walk::split_grids;
 use super::{Frame, GRID_TAG, GridHierarchy, NO_FRAME};
 use crate::accel::block::{Block, BlockRay, BlockRays, LANES, Lanes as Lanes8};
@@ -202,14 +203,16 @@ impl GridHierarchy {
         // A packet that misses the world grid needs none of the set-up below (rays, kernels'
         // lanes, mailboxes), which is most of such a packet's cost.
         let world = &self.grids[0];
-        if world.frame == NO_FRAME {
-            let enters = rays[..n].iter().zip(&sinks[..n]).any(|(r, s)| {
-                let (t0, t1) = world.interval(r.origin, Vec3::ONE / r.dir, r.tmin, s.tmax());
-                t0 <= t1
-            });
-            if !enters {
-                return;
-            }
+        if world.frame == NO_FRAME
+            && !any_meets(
+                world.min,
+                world.max,
+                &rays[..n],
+                |i| sinks[i].tmax(),
+                self.simd,
+            )
+        {
+            return;
         }
         let prepared: [PreparedRay; GRID_PACKET] =
             std::array::from_fn(|l| PreparedRay::new(&rays[l.min(n - 1)]));
