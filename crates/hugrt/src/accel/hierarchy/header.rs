@@ -80,19 +80,43 @@ fn meets8_lanes(
         }
         (near[l], far_end[l]) = (r.tmin, far(i));
     }
+    let inv: [[f32; L]; 3] = std::array::from_fn(|a| std::array::from_fn(|l| 1.0 / d[a][l]));
+    let (t0, t1) = slab_lanes(min, max, &o, &inv, &near, &far_end);
     let mut meets = 0u32;
     for l in 0..L {
+        meets |= ((t0[l] <= t1[l]) as u32) << l;
+    }
+    meets
+}
+
+/// [`slab`] of `L` rays at once, given lane by lane (`o[a][l]` is ray `l`'s origin along axis
+/// `a`, `inv` its inverse direction, `near` and `far` its interval): each lane makes
+/// [`slab`]'s operations in [`slab`]'s order (glam's `min`, `max` and their reductions are
+/// [`lesser`] and [`greater`]; the ends `f32::max` and `f32::min`), so its numbers are
+/// [`slab`]'s (tested), in a loop the compiler vectorizes.
+#[inline(always)]
+pub(super) fn slab_lanes<const L: usize>(
+    min: Vec3,
+    max: Vec3,
+    o: &[[f32; L]; 3],
+    inv: &[[f32; L]; 3],
+    near: &[f32; L],
+    far: &[f32; L],
+) -> ([f32; L], [f32; L]) {
+    let (mut t0, mut t1) = ([0f32; L], [0f32; L]);
+    for l in 0..L {
         let slabs = |a: usize| {
-            let inv = 1.0 / d[a][l];
-            let (ta, tb) = ((min[a] - o[a][l]) * inv, (max[a] - o[a][l]) * inv);
+            let (ta, tb) = (
+                (min[a] - o[a][l]) * inv[a][l],
+                (max[a] - o[a][l]) * inv[a][l],
+            );
             (lesser(ta, tb), greater(ta, tb))
         };
         let ((x0, x1), (y0, y1), (z0, z1)) = (slabs(0), slabs(1), slabs(2));
-        let t0 = near[l].max(greater(greater(x0, y0), z0));
-        let t1 = far_end[l].min(lesser(lesser(x1, y1), z1) * ROBUST_FAR);
-        meets |= ((t0 <= t1) as u32) << l;
+        t0[l] = near[l].max(greater(greater(x0, y0), z0));
+        t1[l] = far[l].min(lesser(lesser(x1, y1), z1) * ROBUST_FAR);
     }
-    meets
+    (t0, t1)
 }
 
 /// [`any_meets`] in AVX2 ([`meets8_avx2`]).
@@ -368,6 +392,25 @@ mod tests {
             "both answers tested: {met}"
         );
         // Runs of rays, the last short: one meets exactly when some does.
+        // `slab_lanes`' numbers, bit for bit, eight lanes of different rays.
+        for run in rays.chunks_exact(8) {
+            let row = |f: &dyn Fn(&Ray) -> Vec3| -> [[f32; 8]; 3] {
+                std::array::from_fn(|a| std::array::from_fn(|l| f(&run[l])[a]))
+            };
+            let (o, inv) = (row(&|r| r.origin), row(&|r| Vec3::ONE / r.dir));
+            let near = std::array::from_fn(|l| run[l].tmin);
+            let far = std::array::from_fn(|l| run[l].tmax);
+            let (t0, t1) = slab_lanes(min, max, &o, &inv, &near, &far);
+            for (l, r) in run.iter().enumerate() {
+                let (a, b) = slab(min, max, r.origin, Vec3::ONE / r.dir, r.tmin, r.tmax);
+                let same = |x: f32, y: f32| x.to_bits() == y.to_bits() || x.is_nan() && y.is_nan();
+                assert!(
+                    same(t0[l], a) && same(t1[l], b),
+                    "{r:?}: {:?}",
+                    (t0[l], t1[l], a, b)
+                );
+            }
+        }
         // Lane by lane, on runs of different rays (the last run short).
         let answer = |r: &Ray| {
             let (t0, t1) = slab(min, max, r.origin, Vec3::ONE / r.dir, r.tmin, r.tmax);
