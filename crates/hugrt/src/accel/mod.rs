@@ -604,8 +604,11 @@ fn first_hits<A: Accel, P: Primitives, C: Counters, S: HitSink>(
     assert_eq!(out.len(), rays.len(), "one answer per ray");
     const { assert!(A::PACKET_RAYS <= MAX_PACKET && A::PACKET_RAYS > 0) };
     let regroup = A::ORDER_PAYS && packets.may_walk(A::PACKETS_PAY);
+    let avx2 = simd::available();
     let walk = |rays: &[Ray], at: &[u32], out: &mut [Option<Hit>], counters: &mut C| {
-        first_hits_of_group(accel, prims, rays, at, packets, out, counters, sink, hit)
+        first_hits_of_group(
+            accel, prims, rays, at, packets, avx2, out, counters, sink, hit,
+        )
     };
     match regroup
         .then(|| order::packet_order(rays, A::PACKET_RAYS))
@@ -641,6 +644,7 @@ fn first_hits_of_group<A: Accel, P: Primitives, C: Counters, S: HitSink>(
     rays: &[Ray],
     at: &[u32],
     packets: Packets,
+    avx2: bool,
     out: &mut [Option<Hit>],
     counters: &mut C,
     sink: impl Fn(f32) -> S + Copy,
@@ -655,18 +659,26 @@ fn first_hits_of_group<A: Accel, P: Primitives, C: Counters, S: HitSink>(
     let mut walked = [Ray::new(Vec3::ZERO, Vec3::X, 0.0, 0.0); MAX_PACKET];
     let mut lane_of = [0u32; MAX_PACKET];
     let mut n = 0;
-    for &i in at {
-        let ray = &rays[i as usize];
-        out[i as usize] = match accel.reach().route(ray) {
-            Route::Skip => None,
-            Route::AsGiven => {
-                walked[n] = ray.without_subnormal_direction();
+    for eight in at.chunks(8) {
+        let routes = accel.reach().route8(rays, eight, avx2);
+        for (k, &i) in eight.iter().enumerate() {
+            let ray = &rays[i as usize];
+            if routes.as_given >> k & 1 != 0 {
+                walked[n] = if routes.subnormal >> k & 1 != 0 {
+                    ray.without_subnormal_direction()
+                } else {
+                    *ray
+                };
                 lane_of[n] = i;
                 n += 1;
-                continue;
+            } else {
+                out[i as usize] = if routes.moved >> k & 1 != 0 {
+                    far_first_hit(accel, prims, ray, counters, sink, hit)
+                } else {
+                    None
+                };
             }
-            Route::Moved => far_first_hit(accel, prims, ray, counters, sink, hit),
-        };
+        }
     }
     if !packets.walk_together(&walked[..n], A::PACKETS_PAY) {
         if A::INTERLEAVES {

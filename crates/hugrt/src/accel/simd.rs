@@ -13,7 +13,7 @@
 //! [`intersect_triangle`]: crate::geometry::intersect_triangle
 //! [`crossing_t`]: crate::geometry::crossing_t
 
-use crate::geometry::{PreparedRay, Vec3};
+use crate::geometry::{PreparedRay, Ray, Vec3};
 
 /// From eight lanes' edge functions `u, v, w` (AVX registers, the scalar test's numbers):
 /// `(crossed, zero)`, the lanes whose triangle is crossed (no two signs differ, no edge
@@ -107,6 +107,58 @@ pub(crate) fn truncate_lanes(v: glam::Vec4) -> [i32; 4] {
     }
     #[cfg(not(target_arch = "x86_64"))]
     v.to_array().map(|x| x as i32)
+}
+
+/// Eight rays as rows of an AVX2 register each: `rows[k]` holds number `k` of rays
+/// `rays[at(0)]` to `rays[at(7)]`, in a [`Ray`]'s field order (origin x, y, z, direction x, y,
+/// z, `tmin`, `tmax`). Each ray is read whole into a register and the eight are transposed by
+/// shuffles (24), where gathering the rows number by number took more instructions than the
+/// tests that read them ([`crate::accel::Reach::route8`], the grids' world-box check).
+///
+/// # Safety
+/// The processor must support AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+pub(crate) unsafe fn ray_rows_avx2(
+    rays: &[Ray],
+    at: impl Fn(usize) -> usize,
+) -> [std::arch::x86_64::__m256; 8] {
+    use std::arch::x86_64::*;
+    const { assert!(size_of::<Ray>() == 8 * size_of::<f32>()) };
+    // SAFETY: a `Ray` is `repr(C)`, three `f32` of origin (glam's `Vec3` is `repr(C)`), three
+    // of direction, `tmin` and `tmax`: 32 bytes (asserted above), read unaligned from a
+    // reference to one.
+    let row = |l: usize| unsafe { _mm256_loadu_ps((&rays[at(l)] as *const Ray).cast()) };
+    let r: [__m256; 8] = std::array::from_fn(row);
+    // Pairs of rays interleaved, then fours, then the two halves of each row joined.
+    let pairs: [__m256; 8] = std::array::from_fn(|k| {
+        let (a, b) = (r[k / 2 * 2], r[k / 2 * 2 + 1]);
+        if k % 2 == 0 {
+            _mm256_unpacklo_ps(a, b)
+        } else {
+            _mm256_unpackhi_ps(a, b)
+        }
+    });
+    let quads: [__m256; 8] = std::array::from_fn(|k| {
+        let (a, b) = (
+            pairs[k / 4 * 4 + k % 4 / 2],
+            pairs[k / 4 * 4 + 2 + k % 4 / 2],
+        );
+        if k % 2 == 0 {
+            _mm256_shuffle_ps::<0x44>(a, b)
+        } else {
+            _mm256_shuffle_ps::<0xee>(a, b)
+        }
+    });
+    std::array::from_fn(|k| {
+        let (a, b) = (quads[k % 4], quads[4 + k % 4]);
+        if k < 4 {
+            _mm256_permute2f128_ps::<0x20>(a, b)
+        } else {
+            _mm256_permute2f128_ps::<0x31>(a, b)
+        }
+    })
 }
 
 /// Asks the cache for the line holding `p`, a hint that never faults whatever the address

@@ -97,11 +97,10 @@ impl Ray {
     /// third of the batch's own time on a camera's rays that miss the scene).
     #[inline]
     pub fn without_subnormal_direction(&self) -> Ray {
-        // Subnormal: magnitude bits from 1 to 2^23 − 1 (zero wraps past them).
-        let subnormal = |x: f32| magnitude_bits(x).wrapping_sub(1) < (1 << 23) - 1;
-        if !(subnormal(self.dir.x) | subnormal(self.dir.y) | subnormal(self.dir.z)) {
+        if !self.has_subnormal_direction() {
             return *self;
         }
+        let subnormal = |x: f32| magnitude_bits(x).wrapping_sub(1) < (1 << 23) - 1;
         let flush = |x: f32| {
             if subnormal(x) { 0.0f32.copysign(x) } else { x }
         };
@@ -109,6 +108,15 @@ impl Ray {
             dir: Vec3::new(flush(self.dir.x), flush(self.dir.y), flush(self.dir.z)),
             ..*self
         }
+    }
+
+    /// Whether a direction component is subnormal, which
+    /// [`Ray::without_subnormal_direction`] flushes.
+    #[inline(always)]
+    pub(crate) fn has_subnormal_direction(&self) -> bool {
+        // Subnormal: magnitude bits from 1 to 2^23 − 1 (zero wraps past them).
+        let subnormal = |x: f32| magnitude_bits(x).wrapping_sub(1) < (1 << 23) - 1;
+        subnormal(self.dir.x) | subnormal(self.dir.y) | subnormal(self.dir.z)
     }
 
     pub fn at(&self, t: f32) -> Vec3 {

@@ -132,9 +132,7 @@ unsafe fn any_meets_avx2(min: Vec3, max: Vec3, rays: &[Ray], far: impl Fn(usize)
         .any(|start| unsafe { meets8_avx2(min, max, rays, start, &far) } != 0)
 }
 
-/// [`meets8_lanes`] in AVX2: each ray read whole into a register (a [`Ray`] is eight `f32` in
-/// field order) and the eight turned into rows by shuffles, where gathering the rows number
-/// by number took more instructions than the test.
+/// [`meets8_lanes`] in AVX2, the rays turned into rows by [`simd::ray_rows_avx2`].
 ///
 /// # Safety
 /// The processor must support AVX2.
@@ -149,43 +147,11 @@ unsafe fn meets8_avx2(
     far: &impl Fn(usize) -> f32,
 ) -> u32 {
     use std::arch::x86_64::*;
-    const { assert!(size_of::<Ray>() == 8 * size_of::<f32>()) };
     let n = rays.len();
     let at = |l: usize| (start + l).min(n - 1);
-    // SAFETY: a `Ray` is `repr(C)`, three `f32` of origin (glam's `Vec3` is `repr(C)`),
-    // three of direction, `tmin` and `tmax`: 32 bytes (asserted above), read unaligned from
-    // a reference to one.
-    let row = |l: usize| unsafe { _mm256_loadu_ps((&rays[at(l)] as *const Ray).cast()) };
-    let r: [__m256; 8] = std::array::from_fn(row);
-    // The 8 × 8 transpose: `c[k]` holds number `k` of each ray (origin x, y, z, direction x,
-    // y, z, `tmin`; the ray's own `tmax` gives way to `far`).
-    let pairs: [__m256; 8] = std::array::from_fn(|k| {
-        let (a, b) = (r[k / 2 * 2], r[k / 2 * 2 + 1]);
-        if k % 2 == 0 {
-            _mm256_unpacklo_ps(a, b)
-        } else {
-            _mm256_unpackhi_ps(a, b)
-        }
-    });
-    let quads: [__m256; 8] = std::array::from_fn(|k| {
-        let (a, b) = (
-            pairs[k / 4 * 4 + k % 4 / 2],
-            pairs[k / 4 * 4 + 2 + k % 4 / 2],
-        );
-        if k % 2 == 0 {
-            _mm256_shuffle_ps::<0x44>(a, b)
-        } else {
-            _mm256_shuffle_ps::<0xee>(a, b)
-        }
-    });
-    let c: [__m256; 7] = std::array::from_fn(|k| {
-        let (a, b) = (quads[k % 4], quads[4 + k % 4]);
-        if k < 4 {
-            _mm256_permute2f128_ps::<0x20>(a, b)
-        } else {
-            _mm256_permute2f128_ps::<0x31>(a, b)
-        }
-    });
+    // Number `k` of each ray in `c[k]`; the rays' own `tmax` gives way to `far`.
+    // SAFETY: the caller's processor has AVX2.
+    let c = unsafe { simd::ray_rows_avx2(rays, at) };
     let far_end: [f32; 8] = std::array::from_fn(|l| far(at(l)));
     // SAFETY: reads the eight `f32` of `far_end`, unaligned.
     let far_end = unsafe { _mm256_loadu_ps(far_end.as_ptr()) };
