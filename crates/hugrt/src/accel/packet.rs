@@ -109,8 +109,22 @@ impl std::fmt::Display for Packets {
 /// the same octant as the first and within [`COHERENT_COS`] of it. Rays from one point through
 /// neighbouring pixels qualify, and so do rays from neighbouring points to one light; rays in
 /// random directions do not. Only a matter of speed: packets give every ray its own answer.
+///
+/// Eight rays at once in AVX2 where the processor has it (the same tests on the same numbers:
+/// one ray at a time they were about 34 instructions a ray of a camera's frame).
 #[inline]
 pub fn coherent(rays: &[Ray]) -> bool {
+    #[cfg(target_arch = "x86_64")]
+    if rays.len() > 1 && super::simd::available() {
+        // SAFETY: the processor has AVX2.
+        return unsafe { coherent_avx2(rays) };
+    }
+    coherent_one_by_one(rays)
+}
+
+/// [`coherent`] ray by ray.
+#[inline]
+fn coherent_one_by_one(rays: &[Ray]) -> bool {
     let Some(first) = rays.first() else {
         return false;
     };
@@ -130,6 +144,64 @@ pub fn coherent(rays: &[Ray]) -> bool {
         })
 }
 
+/// [`coherent`] in AVX2, on [`super::simd::ray_rows_avx2`]'s rows: each lane makes the
+/// single test's products and sums in its order (glam's `dot` and `length_squared` add `x`,
+/// then `y`, then `z`), and the octant is the three sign bits.
+///
+/// # Safety
+/// The processor must support AVX2; `rays` holds at least two rays.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn coherent_avx2(rays: &[Ray]) -> bool {
+    use std::arch::x86_64::*;
+    let d0 = rays[0].dir;
+    let c2 = COHERENT_COS * COHERENT_COS * d0.length_squared();
+    if c2.is_nan() || c2 <= 0.0 {
+        return false;
+    }
+    let n = rays.len();
+    let (x0, y0, z0) = (
+        _mm256_set1_ps(d0.x),
+        _mm256_set1_ps(d0.y),
+        _mm256_set1_ps(d0.z),
+    );
+    let (c2, zero) = (_mm256_set1_ps(c2), _mm256_setzero_ps());
+    let sign = _mm256_set1_ps(-0.0);
+    let mut k = 1;
+    while k < n {
+        // Lanes past the last ray repeat it.
+        // SAFETY: the caller's processor has AVX2.
+        let c = unsafe { super::simd::ray_rows_avx2(rays, |l| (k + l).min(n - 1)) };
+        let (x, y, z) = (c[3], c[4], c[5]);
+        let dot = _mm256_add_ps(
+            _mm256_add_ps(_mm256_mul_ps(x, x0), _mm256_mul_ps(y, y0)),
+            _mm256_mul_ps(z, z0),
+        );
+        let length = _mm256_add_ps(
+            _mm256_add_ps(_mm256_mul_ps(x, x), _mm256_mul_ps(y, y)),
+            _mm256_mul_ps(z, z),
+        );
+        // A sign differs from the first direction's where the exclusive or keeps it.
+        let flips = _mm256_or_ps(
+            _mm256_or_ps(_mm256_xor_ps(x, x0), _mm256_xor_ps(y, y0)),
+            _mm256_xor_ps(z, z0),
+        );
+        let octant = _mm256_castsi256_ps(_mm256_cmpeq_epi32(
+            _mm256_castps_si256(_mm256_and_ps(flips, sign)),
+            _mm256_setzero_si256(),
+        ));
+        let near = _mm256_and_ps(
+            _mm256_cmp_ps::<_CMP_GT_OQ>(dot, zero),
+            _mm256_cmp_ps::<_CMP_GE_OQ>(_mm256_mul_ps(dot, dot), _mm256_mul_ps(c2, length)),
+        );
+        if _mm256_movemask_ps(_mm256_and_ps(octant, near)) != 0xff {
+            return false;
+        }
+        k += 8;
+    }
+    true
+}
+
 /// The cosine of the widest angle [`coherent`] allows between a group's first direction and
 /// another's: 0.98, about 11°, several times a 1024-pixel camera's group of eight (a
 /// 45° field of view spreads eight neighbouring pixels over 0.35°) or a light's from points a
@@ -143,6 +215,49 @@ mod tests {
 
     fn ray(d: Vec3) -> Ray {
         Ray::new(Vec3::ZERO, d, 0.0, f32::INFINITY)
+    }
+
+    /// [`coherent`]'s AVX2 path answers as the one ray at a time, on groups of one to 32 rays
+    /// that share an octant and a cone or leave it by one ray, a sign of zero or a NaN.
+    #[test]
+    fn coherent_answers_alike_on_every_path() {
+        if !crate::accel::simd::available() {
+            eprintln!("no AVX2 here: only the portable path runs");
+            return;
+        }
+        let base = Vec3::new(0.3, -0.5, 0.8);
+        let odd = [
+            Vec3::new(0.3, -0.5, -0.8),
+            Vec3::new(-0.0, -0.5, 0.8),
+            Vec3::new(0.3, -0.5, 0.0),
+            Vec3::new(0.3, 0.5, 0.8),
+            Vec3::new(f32::NAN, -0.5, 0.8),
+            Vec3::new(0.6, -0.5, 0.8),
+            Vec3::new(0.3, -0.56, 0.8),
+            Vec3::ZERO,
+            Vec3::new(1e30, -1e30, 1e30),
+        ];
+        let (mut yes, mut no) = (0, 0);
+        for n in 1..=32usize {
+            for (j, &d) in odd.iter().enumerate() {
+                for at in [0, n / 2, n - 1] {
+                    let rays: Vec<Ray> = (0..n)
+                        .map(|i| {
+                            let spread = Vec3::new(0.001 * i as f32, 0.0005 * (j as f32), 0.0);
+                            ray(if i == at { d } else { base + spread })
+                        })
+                        .collect();
+                    let one = coherent_one_by_one(&rays);
+                    assert_eq!(coherent(&rays), one, "{rays:?}");
+                    if n > 1 {
+                        // SAFETY: the processor has AVX2.
+                        assert_eq!(unsafe { coherent_avx2(&rays) }, one, "{rays:?}");
+                    }
+                    (yes, no) = if one { (yes + 1, no) } else { (yes, no + 1) };
+                }
+            }
+        }
+        assert!(yes > 100 && no > 100, "both answers tested: {yes}, {no}");
     }
 
     #[test]
