@@ -664,11 +664,12 @@ fn first_hits_of_group<A: Accel, P: Primitives, C: Counters, S: HitSink>(
         for (k, &i) in eight.iter().enumerate() {
             let ray = &rays[i as usize];
             if routes.as_given >> k & 1 != 0 {
-                walked[n] = if routes.subnormal >> k & 1 != 0 {
-                    ray.without_subnormal_direction()
-                } else {
-                    *ray
-                };
+                // Copied whole, and flushed in place where it must be (rarely): the choice
+                // between the two made the copy field by field.
+                walked[n] = *ray;
+                if routes.subnormal >> k & 1 != 0 {
+                    walked[n] = walked[n].without_subnormal_direction();
+                }
                 lane_of[n] = i;
                 n += 1;
             } else {
