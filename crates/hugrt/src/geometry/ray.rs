@@ -100,9 +100,12 @@ impl Ray {
         if !self.has_subnormal_direction() {
             return *self;
         }
-        let subnormal = |x: f32| magnitude_bits(x).wrapping_sub(1) < (1 << 23) - 1;
         let flush = |x: f32| {
-            if subnormal(x) { 0.0f32.copysign(x) } else { x }
+            if is_subnormal(x) {
+                0.0f32.copysign(x)
+            } else {
+                x
+            }
         };
         Ray {
             dir: Vec3::new(flush(self.dir.x), flush(self.dir.y), flush(self.dir.z)),
@@ -114,14 +117,18 @@ impl Ray {
     /// [`Ray::without_subnormal_direction`] flushes.
     #[inline(always)]
     pub(crate) fn has_subnormal_direction(&self) -> bool {
-        // Subnormal: magnitude bits from 1 to 2^23 − 1 (zero wraps past them).
-        let subnormal = |x: f32| magnitude_bits(x).wrapping_sub(1) < (1 << 23) - 1;
-        subnormal(self.dir.x) | subnormal(self.dir.y) | subnormal(self.dir.z)
+        is_subnormal(self.dir.x) | is_subnormal(self.dir.y) | is_subnormal(self.dir.z)
     }
 
     pub fn at(&self, t: f32) -> Vec3 {
         self.origin + self.dir * t
     }
+}
+
+/// Whether `x` is subnormal: magnitude bits from 1 to 2^23 − 1 (zero wraps past them).
+#[inline(always)]
+fn is_subnormal(x: f32) -> bool {
+    magnitude_bits(x).wrapping_sub(1) < (1 << 23) - 1
 }
 
 /// The bits of `|x|`.

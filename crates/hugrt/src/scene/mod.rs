@@ -421,9 +421,9 @@ impl Scene {
     /// The box of every primitive (NaN coordinates left out, as `f32::min` leaves them). A
     /// render asks for it once per frame, so it is folded on every thread (the four kitchens'
     /// 115,284 primitives took 7.0 M instructions on one thread: a 1×1 render took 0.8 ms,
-    /// 0.4 on two threads): in order, and `min` and `max` pick the same one of two equal values (their sign of
-    /// zero) whichever way an in-order sequence is grouped, so the box is bit for bit one
-    /// thread's fold.
+    /// 0.4 on two threads): in order, and `min` and `max` pick the same one of two equal
+    /// values (their sign of zero) whichever way an in-order sequence is grouped, so the box
+    /// is bit for bit one thread's fold.
     pub fn bounds(&self) -> Aabb {
         let union = |a: Aabb, b: Aabb| a.union(&b);
         let shapes = self
