@@ -118,7 +118,8 @@ struct RenderArgs {
     /// Walk groups of neighbouring eye rays (8 for the bvh, 32 for the grids), and their
     /// shadow rays to each light, together: auto, where a group looks coherent and the
     /// structure's packet walk pays (the bvh's, the grid's, the HUG's, the recursive grid's);
-    /// on, every group; off, every ray alone. The image is the same either way.
+    /// on, every group; off, every ray alone (nor are shadow rays first tried against what
+    /// blocked the group before). The image is the same either way.
     #[arg(long, default_value = "auto", value_parser = clap::builder::PossibleValuesParser::new(Packets::NAMES).map(|s| s.parse::<Packets>().expect("a listed mode")))]
     packets: Packets,
 }
@@ -161,8 +162,9 @@ struct TraceArgs {
     /// octant: a camera's rays, a light's) and the structure's packet walk pays (the bvh's,
     /// the grid's, the HUG's, the recursive grid's); on, every group, in every structure;
     /// off, every ray alone. Where groups are walked, a camera's rays (found row by row in
-    /// the file) are grouped in tiles of 4 × 8 pixels and rays to a light by direction. The
-    /// hits are the same either way.
+    /// the file) are grouped in tiles of 4 × 8 pixels and rays to a light by direction. Unless
+    /// off, any-hit rays are first tried against what blocked the group before (a shadow
+    /// cache). The hits are the same either way.
     #[arg(long, default_value = "auto", value_parser = clap::builder::PossibleValuesParser::new(Packets::NAMES).map(|s| s.parse::<Packets>().expect("a listed mode")))]
     packets: Packets,
 }

@@ -23,6 +23,7 @@ pub mod hug;
 mod kdtree;
 mod mailbox;
 mod margin;
+mod occluders;
 mod octree;
 pub(crate) mod order;
 pub mod packet;
@@ -48,6 +49,7 @@ pub use hierarchy::{GridLevelStats, LevelView, Prune, cubical_resolution};
 pub use hug::{Hug, HugSettings};
 pub use kdtree::{KdTree, KdTreeSettings, Layout as KdTreeLayout, SplitRule as KdTreeSplit};
 pub use mailbox::Mailbox;
+use occluders::Occluders;
 pub use octree::{Octree, OctreeSettings};
 pub use packet::{MAX_PACKET, PACKET, Packets};
 pub use query::{AnyHit, Closest, EveryHit, Hit, HitSink};
@@ -448,6 +450,7 @@ pub trait Accel: Sized + Send + Sync {
             prims,
             rays,
             packets,
+            false,
             out,
             counters,
             Closest::new,
@@ -456,7 +459,11 @@ pub trait Accel: Sized + Send + Sync {
     }
 
     /// Some hit of each ray, if it has any: `out[i]` is `Some` exactly when
-    /// [`Accel::any_hit`] of `rays[i]` is, with packets as [`Accel::closest_hits`].
+    /// [`Accel::any_hit`] of `rays[i]` is, with packets as [`Accel::closest_hits`]. Unless
+    /// `packets` is [`Packets::Off`] (every ray on its own), each group of rays is first tested
+    /// against the primitives that blocked rays of the groups before it (the shadow cache of
+    /// Haines and Greenberg, `accel::occluders`), so the hit reported may differ from
+    /// [`Accel::any_hit`]'s.
     ///
     /// # Panics
     /// When `out` and `rays` differ in length.
@@ -473,6 +480,7 @@ pub trait Accel: Sized + Send + Sync {
             prims,
             rays,
             packets,
+            packets != Packets::Off,
             out,
             counters,
             AnyHit::new,
@@ -596,6 +604,7 @@ fn first_hits<A: Accel, P: Primitives, C: Counters, S: HitSink>(
     prims: &P,
     rays: &[Ray],
     packets: Packets,
+    cache: bool,
     out: &mut [Option<Hit>],
     counters: &mut C,
     sink: impl Fn(f32) -> S + Copy,
@@ -605,9 +614,20 @@ fn first_hits<A: Accel, P: Primitives, C: Counters, S: HitSink>(
     const { assert!(A::PACKET_RAYS <= MAX_PACKET && A::PACKET_RAYS > 0) };
     let regroup = A::ORDER_PAYS && packets.may_walk(A::PACKETS_PAY);
     let avx2 = simd::available();
-    let walk = |rays: &[Ray], at: &[u32], out: &mut [Option<Hit>], counters: &mut C| {
+    let mut occluders = Occluders::default();
+    let mut walk = |rays: &[Ray], at: &[u32], out: &mut [Option<Hit>], counters: &mut C| {
         first_hits_of_group(
-            accel, prims, rays, at, packets, avx2, out, counters, sink, hit,
+            accel,
+            prims,
+            rays,
+            at,
+            packets,
+            avx2,
+            cache.then_some(&mut occluders),
+            out,
+            counters,
+            sink,
+            hit,
         )
     };
     match regroup
@@ -645,6 +665,7 @@ fn first_hits_of_group<A: Accel, P: Primitives, C: Counters, S: HitSink>(
     at: &[u32],
     packets: Packets,
     avx2: bool,
+    mut occluders: Option<&mut Occluders>,
     out: &mut [Option<Hit>],
     counters: &mut C,
     sink: impl Fn(f32) -> S + Copy,
@@ -681,24 +702,66 @@ fn first_hits_of_group<A: Accel, P: Primitives, C: Counters, S: HitSink>(
             }
         }
     }
+    // The cached blockers that block the group's first ray are tried on the others, the rest
+    // dropped: the rays they block are answered, the others walked.
+    if let Some(cache) = occluders.as_deref_mut().filter(|c| !c.is_empty() && n > 0) {
+        let mut used = Occluders::unused();
+        if let Some(h) = cache.test(prims, &walked[0], &mut used, counters) {
+            out[lane_of[0] as usize] = Some(h);
+            cache.keep_used(&used);
+            let mut kept = 0;
+            for j in 1..n {
+                let i = lane_of[j];
+                match cache.test(prims, &walked[j], &mut used, counters) {
+                    Some(h) => out[i as usize] = Some(h),
+                    None => {
+                        walked[kept] = walked[j];
+                        lane_of[kept] = i;
+                        kept += 1;
+                    }
+                }
+            }
+            // Blockers that blocked fewer than half of the group are not worth a test a ray.
+            if 2 * kept > n {
+                cache.failed();
+            } else {
+                cache.paid();
+            }
+            n = kept;
+        } else {
+            cache.failed();
+        }
+    }
+    // The walk's last blocker is cached (one a group: its geometry is read from the scene).
+    let mut blocker = None;
+    let mut answer = |i: u32, h: Option<Hit>| {
+        blocker = h.map(|h| h.prim).or(blocker);
+        out[i as usize] = h;
+    };
     if !packets.walk_together(&walked[..n], A::PACKETS_PAY) {
         if A::INTERLEAVES {
             let mut sinks: [S; MAX_PACKET] = std::array::from_fn(|l| sink(walked[l].tmax));
             accel.query_each(prims, &walked[..n], &mut sinks[..n], counters);
             for (s, &i) in sinks[..n].iter().zip(&lane_of) {
-                out[i as usize] = hit(s);
+                answer(i, hit(s));
             }
-            return;
+        } else {
+            for (ray, &i) in walked[..n].iter().zip(&lane_of) {
+                answer(i, near_alone(ray, counters));
+            }
         }
-        for (ray, &i) in walked[..n].iter().zip(&lane_of) {
-            out[i as usize] = near_alone(ray, counters);
+    } else {
+        let mut sinks: [S; MAX_PACKET] = std::array::from_fn(|l| sink(walked[l].tmax));
+        accel.query_packet(prims, &walked[..n], &mut sinks[..n], counters);
+        for (s, &i) in sinks[..n].iter().zip(&lane_of) {
+            answer(i, hit(s));
         }
-        return;
     }
-    let mut sinks: [S; MAX_PACKET] = std::array::from_fn(|l| sink(walked[l].tmax));
-    accel.query_packet(prims, &walked[..n], &mut sinks[..n], counters);
-    for (s, &i) in sinks[..n].iter().zip(&lane_of) {
-        out[i as usize] = hit(s);
+    if let (Some(cache), Some(p)) = (occluders, blocker)
+        && !cache.holds(p)
+        && cache.may_record()
+    {
+        cache.record(p, prims.kind(p as usize));
     }
 }
 

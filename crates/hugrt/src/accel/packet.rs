@@ -49,7 +49,8 @@ pub enum Packets {
     Auto,
     /// Every group of [`PACKET`] neighbouring rays as a packet, coherent or not.
     On,
-    /// Every ray on its own.
+    /// Every ray on its own: walked alone, and any-hit rays not first tried against what
+    /// blocked their neighbours ([`super::Accel::any_hits`]' shadow cache).
     Off,
 }
 
