@@ -461,8 +461,8 @@ pub trait Accel: Sized + Send + Sync {
     /// Some hit of each ray, if it has any: `out[i]` is `Some` exactly when
     /// [`Accel::any_hit`] of `rays[i]` is, with packets as [`Accel::closest_hits`]. Unless
     /// `packets` is [`Packets::Off`] (every ray on its own), each group of rays is first tested
-    /// against the primitives that blocked rays of the groups before it (the shadow cache of
-    /// Haines and Greenberg, `accel::occluders`), so the hit reported may differ from
+    /// against the primitive that last blocked a ray of the groups before it (the shadow cache
+    /// of Haines and Greenberg, `accel::occluders`), so the hit reported may differ from
     /// [`Accel::any_hit`]'s.
     ///
     /// # Panics
@@ -702,17 +702,16 @@ fn first_hits_of_group<A: Accel, P: Primitives, C: Counters, S: HitSink>(
             }
         }
     }
-    // The cached blockers that block the group's first ray are tried on the others, the rest
-    // dropped: the rays they block are answered, the others walked.
+    // The cached blocker, if it blocks the group's first ray, is tried on the others: the
+    // rays it blocks are answered, the others walked.
     if let Some(cache) = occluders.as_deref_mut().filter(|c| !c.is_empty() && n > 0) {
-        let mut used = Occluders::unused();
-        if let Some(h) = cache.test(prims, &walked[0], &mut used, counters) {
+        if let Some(h) = cache.test(prims, &walked[0], counters) {
             out[lane_of[0] as usize] = Some(h);
-            cache.keep_used(&used);
+            cache.paid();
             let mut kept = 0;
             for j in 1..n {
                 let i = lane_of[j];
-                match cache.test(prims, &walked[j], &mut used, counters) {
+                match cache.test(prims, &walked[j], counters) {
                     Some(h) => out[i as usize] = Some(h),
                     None => {
                         walked[kept] = walked[j];
@@ -720,12 +719,6 @@ fn first_hits_of_group<A: Accel, P: Primitives, C: Counters, S: HitSink>(
                         kept += 1;
                     }
                 }
-            }
-            // Blockers that blocked fewer than half of the group are not worth a test a ray.
-            if 2 * kept > n {
-                cache.failed();
-            } else {
-                cache.paid();
             }
             n = kept;
         } else {
