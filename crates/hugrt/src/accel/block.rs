@@ -15,7 +15,7 @@
 //! [`intersect_triangle`]: crate::geometry::intersect_triangle
 //! [`crossing_t`]: crate::geometry::crossing_t
 
-use crate::geometry::{PreparedRay, Vec3};
+use crate::geometry::{PreparedRay, Ray, Vec3};
 
 /// Triangles in a block.
 pub const LANES: usize = 4;
@@ -77,6 +77,17 @@ impl BlockRay {
         BlockRay {
             o: ray.ray.origin.to_array(),
             rows: ray.rows.map(|r| r.to_array()),
+        }
+    }
+
+    /// [`BlockRay::new`] of `ray` prepared, without the rest of the preparation (the inverse
+    /// direction's three divisions): the same numbers.
+    #[inline]
+    pub fn of_ray(ray: &Ray) -> Self {
+        BlockRay {
+            o: ray.origin.to_array(),
+            rows: crate::geometry::shear_rows(ray.dir, |kz| 1.0 / ray.dir[kz])
+                .map(|r| r.to_array()),
         }
     }
 }
@@ -316,6 +327,19 @@ mod tests {
     }
 
     proptest! {
+        /// A ray's shear alone is its prepared shear, bit for bit (the cache of blockers
+        /// makes it so, `accel::occluders`).
+        #[test]
+        fn a_rays_shear_alone_is_its_prepared_shear(origin in point(), dir in point()) {
+            let ray = Ray::new(origin, dir, 0.0, f32::INFINITY);
+            let (a, b) = (BlockRay::of_ray(&ray), BlockRay::new(&PreparedRay::new(&ray)));
+            prop_assert_eq!(a.o.map(f32::to_bits), b.o.map(f32::to_bits));
+            prop_assert_eq!(
+                a.rows.map(|r| r.map(f32::to_bits)),
+                b.rows.map(|r| r.map(f32::to_bits))
+            );
+        }
+
         /// Every kernel agrees with the scalar test lane by lane: the same lanes pass at the
         /// same bits of `t`, and the lanes handed back are exactly those with a zero edge
         /// function (where the scalar test is the answer).

@@ -708,16 +708,17 @@ fn first_hits_of_group<A: Accel, P: Primitives, C: Counters, S: HitSink>(
         if let Some(h) = cache.test(prims, &walked[0], counters) {
             out[lane_of[0] as usize] = Some(h);
             cache.paid();
+            let mut blocked = 1u32;
+            cache.test_many(prims, &walked[1..n], avx2, counters, |j, h| {
+                out[lane_of[j + 1] as usize] = Some(h);
+                blocked |= 1 << (j + 1);
+            });
             let mut kept = 0;
-            for j in 1..n {
-                let i = lane_of[j];
-                match cache.test(prims, &walked[j], counters) {
-                    Some(h) => out[i as usize] = Some(h),
-                    None => {
-                        walked[kept] = walked[j];
-                        lane_of[kept] = i;
-                        kept += 1;
-                    }
+            for j in 0..n {
+                if blocked >> j & 1 == 0 {
+                    walked[kept] = walked[j];
+                    lane_of[kept] = lane_of[j];
+                    kept += 1;
                 }
             }
             n = kept;

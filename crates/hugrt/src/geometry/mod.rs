@@ -15,6 +15,7 @@ mod triangle;
 pub use aabb::Aabb;
 pub use cone::Cone;
 pub use polygon::{newell_normal, triangulate_polygon};
+pub(crate) use ray::shear_rows;
 pub use ray::{PreparedRay, Ray};
 pub use shape::{
     Shape, SurfacePoint, TINY_COORDINATE, TriangleBoxTest, TriangleCellTest,

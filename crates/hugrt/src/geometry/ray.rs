@@ -158,31 +158,37 @@ pub struct PreparedRay {
 impl PreparedRay {
     #[inline]
     pub fn new(ray: &Ray) -> Self {
-        let d = ray.dir;
-        let a = d.abs();
-        let kz = if a.x >= a.y && a.x >= a.z {
-            0
-        } else if a.y >= a.z {
-            1
-        } else {
-            2
-        };
-        let mut kx = (kz + 1) % 3;
-        let mut ky = (kx + 1) % 3;
-        if d[kz] < 0.0 {
-            std::mem::swap(&mut kx, &mut ky);
-        }
-        // `1 / d[kz]` is the inverse direction's component: one division fewer.
-        let inv_dir = Vec3::ONE / d;
-        let sz = inv_dir[kz];
-        let (sx, sy) = (d[kx] * sz, d[ky] * sz);
-        let e = |k: usize| Vec3::AXES[k];
+        let inv_dir = Vec3::ONE / ray.dir;
         PreparedRay {
             ray: *ray,
             inv_dir,
-            rows: [e(kx) - sx * e(kz), e(ky) - sy * e(kz)],
+            // `1 / d[kz]` is the inverse direction's component: one division fewer.
+            rows: shear_rows(ray.dir, |kz| inv_dir[kz]),
         }
     }
+}
+
+/// [`PreparedRay::rows`] of direction `d`, where `inv(kz)` is `1 / d[kz]` (a lane of the
+/// inverse direction, or the one division: the same bits either way).
+#[inline(always)]
+pub(crate) fn shear_rows(d: Vec3, inv: impl FnOnce(usize) -> f32) -> [Vec3; 2] {
+    let a = d.abs();
+    let kz = if a.x >= a.y && a.x >= a.z {
+        0
+    } else if a.y >= a.z {
+        1
+    } else {
+        2
+    };
+    let mut kx = (kz + 1) % 3;
+    let mut ky = (kx + 1) % 3;
+    if d[kz] < 0.0 {
+        std::mem::swap(&mut kx, &mut ky);
+    }
+    let sz = inv(kz);
+    let (sx, sy) = (d[kx] * sz, d[ky] * sz);
+    let e = |k: usize| Vec3::AXES[k];
+    [e(kx) - sx * e(kz), e(ky) - sy * e(kz)]
 }
 
 #[cfg(test)]
