@@ -328,7 +328,7 @@ mod tests {
 
     proptest! {
         /// A ray's shear alone is its prepared shear, bit for bit (the cache of blockers
-        /// makes it so, `accel::occluders`).
+        /// makes it so, `accel::shadow_cache`).
         #[test]
         fn a_rays_shear_alone_is_its_prepared_shear(origin in point(), dir in point()) {
             let ray = Ray::new(origin, dir, 0.0, f32::INFINITY);

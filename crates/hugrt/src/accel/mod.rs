@@ -23,7 +23,6 @@ pub mod hug;
 mod kdtree;
 mod mailbox;
 mod margin;
-mod occluders;
 mod octree;
 pub(crate) mod order;
 pub mod packet;
@@ -31,6 +30,7 @@ mod query;
 mod reach;
 mod rgrid;
 pub mod settings;
+mod shadow_cache;
 mod simd;
 mod sort;
 mod spec;
@@ -49,7 +49,6 @@ pub use hierarchy::{GridLevelStats, LevelView, Prune, cubical_resolution};
 pub use hug::{Hug, HugSettings};
 pub use kdtree::{KdTree, KdTreeSettings, Layout as KdTreeLayout, SplitRule as KdTreeSplit};
 pub use mailbox::Mailbox;
-use occluders::Occluders;
 pub use octree::{Octree, OctreeSettings};
 pub use packet::{MAX_PACKET, PACKET, Packets};
 pub use query::{AnyHit, Closest, EveryHit, Hit, HitSink};
@@ -57,6 +56,7 @@ pub use reach::Reach;
 use reach::Route;
 pub use rgrid::{RecursiveGrid, RecursiveGridSettings};
 pub use settings::{KeyHelp, NoSettings, Settings};
+use shadow_cache::ShadowCache;
 pub use simd::Simd;
 pub use spec::{Preset, Spec, SpecError};
 
@@ -462,7 +462,7 @@ pub trait Accel: Sized + Send + Sync {
     /// [`Accel::any_hit`] of `rays[i]` is, with packets as [`Accel::closest_hits`]. Unless
     /// `packets` is [`Packets::Off`] (every ray on its own), each group of rays is first tested
     /// against the primitive that last blocked a ray of the groups before it (the shadow cache
-    /// of Haines and Greenberg, `accel::occluders`), so the hit reported may differ from
+    /// of Haines and Greenberg, `accel::shadow_cache`), so the hit reported may differ from
     /// [`Accel::any_hit`]'s.
     ///
     /// # Panics
@@ -614,7 +614,7 @@ fn first_hits<A: Accel, P: Primitives, C: Counters, S: HitSink>(
     const { assert!(A::PACKET_RAYS <= MAX_PACKET && A::PACKET_RAYS > 0) };
     let regroup = A::ORDER_PAYS && packets.may_walk(A::PACKETS_PAY);
     let avx2 = simd::available();
-    let mut occluders = Occluders::default();
+    let mut shadows = ShadowCache::default();
     let mut walk = |rays: &[Ray], at: &[u32], out: &mut [Option<Hit>], counters: &mut C| {
         first_hits_of_group(
             accel,
@@ -623,7 +623,7 @@ fn first_hits<A: Accel, P: Primitives, C: Counters, S: HitSink>(
             at,
             packets,
             avx2,
-            cache.then_some(&mut occluders),
+            cache.then_some(&mut shadows),
             out,
             counters,
             sink,
@@ -665,7 +665,7 @@ fn first_hits_of_group<A: Accel, P: Primitives, C: Counters, S: HitSink>(
     at: &[u32],
     packets: Packets,
     avx2: bool,
-    mut occluders: Option<&mut Occluders>,
+    mut shadows: Option<&mut ShadowCache>,
     out: &mut [Option<Hit>],
     counters: &mut C,
     sink: impl Fn(f32) -> S + Copy,
@@ -704,7 +704,7 @@ fn first_hits_of_group<A: Accel, P: Primitives, C: Counters, S: HitSink>(
     }
     // The cached blocker, if it blocks the group's first ray, is tried on the others: the
     // rays it blocks are answered, the others walked.
-    if let Some(cache) = occluders.as_deref_mut().filter(|c| !c.is_empty() && n > 0) {
+    if let Some(cache) = shadows.as_deref_mut().filter(|c| !c.is_empty() && n > 0) {
         if let Some(h) = cache.test(prims, &walked[0], counters) {
             out[lane_of[0] as usize] = Some(h);
             cache.paid();
@@ -751,7 +751,7 @@ fn first_hits_of_group<A: Accel, P: Primitives, C: Counters, S: HitSink>(
             answer(i, hit(s));
         }
     }
-    if let (Some(cache), Some(p)) = (occluders, blocker)
+    if let (Some(cache), Some(p)) = (shadows, blocker)
         && !cache.holds(p)
         && cache.may_record()
     {

@@ -1,4 +1,4 @@
-//! The batch any-hit queries' shadow cache (`accel::occluders`): a primitive that blocked rays
+//! The batch any-hit queries' shadow cache (`accel::shadow_cache`): a primitive that blocked rays
 //! of one group is tried first on the next, and must block only the rays it blocks in their
 //! own `[tmin, tmax]`.
 

@@ -33,7 +33,7 @@ const MAX_WAIT: u32 = 64;
 /// The primitive that last blocked a ray of a batch, with its geometry
 /// ([`Primitives::kind`]), and the wait before caching another after a failure.
 #[derive(Clone, Copy)]
-pub(crate) struct Occluders {
+pub(crate) struct ShadowCache {
     blocker: Option<(u32, PrimitiveKind)>,
     /// A triangle blocker in the packet kernel's first lane, the others empty.
     block: Block,
@@ -43,9 +43,9 @@ pub(crate) struct Occluders {
     idle: u32,
 }
 
-impl Default for Occluders {
+impl Default for ShadowCache {
     fn default() -> Self {
-        Occluders {
+        ShadowCache {
             blocker: None,
             block: Block::EMPTY,
             wait: 0,
@@ -54,7 +54,7 @@ impl Default for Occluders {
     }
 }
 
-impl Occluders {
+impl ShadowCache {
     /// Whether a blocker is cached.
     #[inline]
     pub(crate) fn is_empty(&self) -> bool {
@@ -121,7 +121,7 @@ impl Occluders {
     /// triangle is met by eight rays at a time with the packet kernel ([`super::block::packet_rays_avx2`], bit for bit the
     /// triangle's own test: a crossed lane's `t` is [`crossing_t`]'s, a lane it hands back
     /// gets [`intersect_triangle`]), which needs of each ray only its shear rather than the
-    /// whole preparation [`Occluders::test`] makes: on the kitchen, whose shadow rays are
+    /// whole preparation [`ShadowCache::test`] makes: on the kitchen, whose shadow rays are
     /// nearly all blocked by its ceiling, the cache's tests took 40% of the trace's
     /// instructions one ray at a time.
     #[inline]
@@ -189,7 +189,7 @@ mod tests {
 
     #[test]
     fn the_blocker_is_tested_from_its_copy_in_the_rays_interval() {
-        let mut c = Occluders::default();
+        let mut c = ShadowCache::default();
         let ray = Ray::new(Vec3::ZERO, Vec3::Z, 0.0, 2.0);
         // No primitives: the test must not read the scene.
         let none = crate::scene::Scene::from_triangles(Vec::new());
@@ -217,7 +217,7 @@ mod tests {
             Vec3::new(1.0, -1.0, 1.5),
             Vec3::new(0.0, 1.0, 1.0),
         ];
-        let mut c = Occluders::default();
+        let mut c = ShadowCache::default();
         c.record(3, PrimitiveKind::Triangle(v));
         // Rays at the vertices, at points of the edges (where the kernel hands lanes back to
         // the scalar test) and across the triangle, from origins above and below its plane,
@@ -282,7 +282,7 @@ mod tests {
 
     #[test]
     fn failures_wait_longer_each_time_until_one_pays() {
-        let mut c = Occluders::default();
+        let mut c = ShadowCache::default();
         assert!(c.may_record());
         let mut waits = Vec::new();
         for _ in 0..9 {
