@@ -172,7 +172,8 @@ fn by_direction(rays: &[Ray], group: usize) -> Option<Vec<u32>> {
 /// same order (a test compares them). One at a time, the order was about 100 instructions a
 /// shadow ray, a fifth of the kitchen's with the HUG; eight at a time, 64: the kitchen's
 /// shadow rays 161.3 → 149.2 M instructions and 7.4 → 6.6 ms at two threads
-/// (docs/measurements.md, "The order of shadow rays eight at a time").
+/// (docs/measurements.md, "The cells' boxes in smaller tasks, shadow rays ordered eight at a
+/// time").
 fn by_direction_with(rays: &[Ray], group: usize, avx2: bool) -> Option<Vec<u32>> {
     let sampled = rays.len().div_ceil(group).div_ceil(4);
     if 2 * rays

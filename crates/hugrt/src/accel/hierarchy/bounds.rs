@@ -37,7 +37,7 @@ const STEPS: f32 = u16::MAX as f32;
 /// Occupancy words handed to one task of the build: 4,096 cells. At 65,536 cells a task, a
 /// scene of one or two grids (the stadium's 49,446 cells, the kitchen's 76,855) was one or
 /// two tasks on two threads, and the boxes took 0.9 and 1.4 ms of their builds; now 0.5 and
-/// 1.0 (docs/measurements.md, "The boxes of the cells in smaller tasks").
+/// 1.0 (docs/measurements.md, "The cells' boxes in smaller tasks").
 const WORDS_PER_TASK: usize = 64;
 
 /// The box every cell of a grid in a frame of its own gets (the whole cell): its objects'
