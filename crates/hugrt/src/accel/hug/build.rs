@@ -45,12 +45,13 @@ pub enum WorldCells {
     Density(f32),
     /// hugrt's default: 4 cells an item, or one when the world grid is the
     /// hierarchy's only grid and more than half of its cells would hold nothing at one cell an
-    /// item (`mostly_empty`). A scene of one size class with no cluster is one uniform grid,
-    /// and the best density of a uniform grid depends on the scene: the surfaces (the meshes,
-    /// the terrains, SPD sombrero, tetra and mount: 67–93% of a grid of one cell an item empty)
-    /// render as fast or faster at one cell an item and build in 0.6–0.75 of the time, while
-    /// objects filling their box (SPD lattice and jacks: no cell empty) want four or more
-    /// (docs/measurements.md, "The world grid's density on scenes of one level").
+    /// item (`mostly_empty`, from the objects' boxes). A scene of one size class with no
+    /// cluster kept is one uniform grid, and the best density of a uniform grid depends on the
+    /// scene: surfaces (the bunny, the big SPD terrain and tetra, the generated terrain, SPD
+    /// sombrero and tetra, which this rule finds) render as fast or faster at one cell an item
+    /// and build in 0.6–0.75 of the time, while objects filling their box (SPD lattice and
+    /// jacks: no cell of such a grid empty) want four or more (docs/measurements.md, "The
+    /// world grid's density on scenes of one level").
     Auto,
 }
 

@@ -91,12 +91,13 @@ use crate::geometry::Ray;
 ///   trace alike at 4 and 8 (bunny, nefertiti, city ±4%, kitchen 5% slower at 4). With
 ///   offsets kept for occupied cells only, the finer grids cost a few bytes per primitive
 ///   more than the papers' settings. Where the world grid is the only grid (one size class,
-///   no cluster kept) and more than half of its cells would be empty at one cell an item (a
-///   surface: the meshes, the terrains, SPD sombrero, tetra and mount), it gets one cell an
-///   item (`world=auto`, [`WorldCells::Auto`]): the meshes' 512² renders were 1.08–1.18
-///   behind the best grid density by their build alone, and come to 1.05–1.14 (the bunny
-///   1.14 → 1.06, the terrain 1.14 → 1.08); SPD lattice and jacks, whose objects fill their
-///   box, keep 4.
+///   no cluster kept) and the objects' boxes leave more than half of its cells empty at one
+///   cell an item (a surface: the bunny, the big SPD terrain and tetra, the generated
+///   terrain, SPD sombrero and tetra), it gets one cell an item (`world=auto`,
+///   [`WorldCells::Auto`]): the bunny's and the big terrain's 512² renders were 1.14 behind
+///   the best grid density by their build alone, and come to 1.06 and 1.08. SPD lattice and
+///   jacks, whose objects fill their box, keep 4; so do SPD mount (its triangles' boxes meet
+///   most cells), nefertiti and the big teapot (each keeps a cluster's grid).
 /// * `prune`: large objects only (box over 16 cells or more); `prune=false` worst 1.27 (gears'
 ///   slivers), and testing every object costs build time for nothing on meshes.
 /// * `min_cluster` 16 and `loose` 0.25: `min_cluster=1` worst 1.39, `min_cluster=64` 1.43,
