@@ -194,6 +194,26 @@ pub(super) struct GridHeader {
 }
 
 impl GridHeader {
+    /// A grid over `bounds` (in no frame of its own) with `res` cells per axis, standing
+    /// alone (its cells first among all grids'): what a planner asks of a grid before the
+    /// build.
+    pub(super) fn over(bounds: &Aabb, res: [u32; 3]) -> GridHeader {
+        let mut h = GridHeader {
+            min: bounds.min,
+            max: bounds.max,
+            size: Vec3::ONE,
+            inv_size: Vec3::ONE,
+            res: [1, 1, 1],
+            first_cell: 0,
+            frame: NO_FRAME,
+            depth: 0,
+            level: 0,
+            objects: 0,
+        };
+        h.set_resolution(res);
+        h
+    }
+
     pub(super) fn cells(&self) -> usize {
         self.res.iter().map(|&r| r as usize).product()
     }

@@ -3,8 +3,10 @@
 //! objects are referenced by the exact overlap test ([`Prune`]).
 
 use super::MAX_CELLS;
+use super::header::GridHeader;
 use crate::accel::Frame;
-use crate::geometry::Vec3;
+use crate::geometry::{Aabb, Vec3};
+use rayon::prelude::*;
 
 /// Cells per axis for a box of side lengths `extent` holding about `cells` cells that are as
 /// cubical as possible (Woo, GI'92): side `s = (V / cells)^(1/k)` over the `k` axes of non-zero
@@ -31,6 +33,65 @@ pub fn cubical_resolution(extent: Vec3, cells: f64) -> [u32; 3] {
             1
         }
     })
+}
+
+/// Cells an item beyond which [`mostly_empty`] stops marking: such boxes are no thin surface
+/// (a surface's triangles meet about three cells each at 4 cells an item).
+const MARKS_PER_ITEM: u64 = 16;
+
+/// Whether more than half of the cells of a grid over `bounds` with `factor` cells an item
+/// (cubical cells, [`cubical_resolution`]) would hold none of `objects`' boxes (`boxes`
+/// indexed by object): the cells each box meets ([`GridHeader::cell_range`], as the binning
+/// finds them) marked in a bit table, in parallel over chunks of the objects. A chunk that
+/// would mark more than [`MARKS_PER_ITEM`] cells an item stops, and the answer is no: such
+/// boxes are no thin surface, and marking them all could take `n²`. The HUG's `world=auto`
+/// asks it ([`crate::accel::hug::WorldCells::Auto`]).
+pub(crate) fn mostly_empty(boxes: &[Aabb], objects: &[u32], bounds: &Aabb, factor: f64) -> bool {
+    if objects.is_empty() || bounds.is_empty() {
+        return false;
+    }
+    let res = cubical_resolution(bounds.extent(), objects.len() as f64 * factor);
+    let grid = GridHeader::over(bounds, res);
+    let cells = grid.cells();
+    // A chunk of the objects a task, each with a table of its own: few tables to merge.
+    let chunk = objects
+        .len()
+        .div_ceil(2 * rayon::current_num_threads())
+        .max(1 << 12);
+    let words = cells.div_ceil(64);
+    let (rx, rxy) = (res[0] as usize, res[0] as usize * res[1] as usize);
+    let marked = objects
+        .par_chunks(chunk)
+        .map(|chunk| {
+            let mut bits = vec![0u64; words];
+            let mut budget = MARKS_PER_ITEM * chunk.len() as u64;
+            for &i in chunk {
+                let (l, h) = grid.cell_range(&boxes[i as usize]);
+                let volume = (0..3).map(|a| (h[a] - l[a] + 1) as u64).product::<u64>();
+                budget = budget.checked_sub(volume)?;
+                for z in l[2] as usize..=h[2] as usize {
+                    for y in l[1] as usize..=h[1] as usize {
+                        let row = z * rxy + y * rx;
+                        for c in row + l[0] as usize..=row + h[0] as usize {
+                            bits[c / 64] |= 1 << (c % 64);
+                        }
+                    }
+                }
+            }
+            Some(bits)
+        })
+        .try_reduce(
+            || vec![0u64; words],
+            |mut a, b| {
+                a.iter_mut().zip(&b).for_each(|(x, y)| *x |= y);
+                Some(a)
+            },
+        );
+    let Some(occupied) = marked else {
+        return false;
+    };
+    let count: usize = occupied.iter().map(|w| w.count_ones() as usize).sum();
+    2 * count < cells
 }
 
 /// Which objects are referenced only from the cells their surface meets (EG95 §1.2.1's
@@ -151,4 +212,70 @@ pub(crate) struct GridPlan {
     /// Whether its cell planes are moved off the box's round fractions
     /// ([`GridHeader::shift_planes`]: one more cell along axes of 4 or more).
     pub shift: bool,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A sphere's surface of small boxes leaves most cells of its box empty; small cubes
+    /// filling their box, boxes that overlap everywhere and a lattice of long bars do not.
+    #[test]
+    fn a_surface_is_mostly_empty_and_filled_volumes_are_not() {
+        let cube = |c: Vec3, r: f32| Aabb::new(c - Vec3::splat(r), c + Vec3::splat(r));
+        let ids = |n: usize| (0..n as u32).collect::<Vec<u32>>();
+        let bounds = |b: &[Aabb]| b.iter().fold(Aabb::EMPTY, |a, x| a.union(x));
+        // 40,000 patches on a unit sphere, each about the spacing between them.
+        let sphere: Vec<Aabb> = (0..40_000)
+            .map(|k| {
+                let (u, v) = ((k % 200) as f32 / 200.0, (k / 200) as f32 / 200.0);
+                let (theta, phi) = (std::f32::consts::TAU * u, (2.0 * v - 1.0).acos());
+                let p = Vec3::new(phi.sin() * theta.cos(), phi.sin() * theta.sin(), phi.cos());
+                cube(p, 0.01)
+            })
+            .collect();
+        assert!(mostly_empty(
+            &sphere,
+            &ids(sphere.len()),
+            &bounds(&sphere),
+            4.0
+        ));
+        // 20³ cubes, each filling its share of the box.
+        let solid: Vec<Aabb> = (0..8000)
+            .map(|k| {
+                let c = Vec3::new((k % 20) as f32, (k / 20 % 20) as f32, (k / 400) as f32);
+                cube(c, 0.5)
+            })
+            .collect();
+        assert!(!mostly_empty(
+            &solid,
+            &ids(solid.len()),
+            &bounds(&solid),
+            4.0
+        ));
+        // Bars along the three axes through a 10³ lattice of points (SPD lattice's kind).
+        let mut bars = Vec::new();
+        for a in 0..10 {
+            for b in 0..10 {
+                let (a, b) = (a as f32, b as f32);
+                bars.push(Aabb::new(
+                    Vec3::new(0.0, a, b),
+                    Vec3::new(9.0, a + 0.1, b + 0.1),
+                ));
+                bars.push(Aabb::new(
+                    Vec3::new(a, 0.0, b),
+                    Vec3::new(a + 0.1, 9.0, b + 0.1),
+                ));
+                bars.push(Aabb::new(
+                    Vec3::new(a, b, 0.0),
+                    Vec3::new(a + 0.1, b + 0.1, 9.0),
+                ));
+            }
+        }
+        assert!(!mostly_empty(&bars, &ids(bars.len()), &bounds(&bars), 4.0));
+        // Every box the whole scene: no marking at all (the budget), and not empty.
+        let pile = vec![cube(Vec3::ZERO, 1.0); 100_000];
+        assert!(!mostly_empty(&pile, &ids(pile.len()), &bounds(&pile), 4.0));
+        assert!(!mostly_empty(&pile, &[], &bounds(&pile), 4.0));
+    }
 }
