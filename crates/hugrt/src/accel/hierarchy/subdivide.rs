@@ -6,7 +6,6 @@ use super::header::GridHeader;
 use super::plan::Subdivision;
 use super::{GRID_TAG, GridHierarchy, MAX_REFS_PER_ITEM, MIN_REF_BUDGET, NO_FRAME};
 use crate::accel::Primitives;
-use crate::geometry::Vec3;
 use rayon::prelude::*;
 
 /// Objects of crowded cells binned together before the budgets decide which cells are cut:
@@ -85,22 +84,16 @@ impl GridHierarchy {
                         let objects: Vec<u32> =
                             pairs[k..k + objects].iter().map(|&p| p as u32).collect();
                         let mut h = GridHeader {
-                            min: b.min,
-                            max: b.max,
-                            size: Vec3::ONE,
-                            inv_size: Vec3::ONE,
-                            res: [1, 1, 1],
-                            first_cell: 0,
-                            frame: NO_FRAME,
                             depth: parent.depth + 1,
                             level: parent.level + 1,
                             objects: objects.len() as u32,
+                            ..GridHeader::over(
+                                &b,
+                                sub.cells
+                                    .for_objects(objects.len())
+                                    .cells_per_axis(b.extent()),
+                            )
                         };
-                        h.set_resolution(
-                            sub.cells
-                                .for_objects(objects.len())
-                                .cells_per_axis(b.extent()),
-                        );
                         let it = Items {
                             objects: &objects,
                             boxes: binner.boxes,
