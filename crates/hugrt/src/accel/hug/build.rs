@@ -43,17 +43,24 @@ pub enum WorldCells {
     Sqrt2,
     /// `D·N` cells (the uniform grid's density rule).
     Density(f32),
-    /// hugrt's default: 4 cells an item, or one when the world grid is the
-    /// hierarchy's only grid and more than half of its cells would hold nothing at one cell an
-    /// item (`mostly_empty`, from the objects' boxes). A scene of one size class with no
-    /// cluster kept is one uniform grid, and the best density of a uniform grid depends on the
-    /// scene: surfaces (the bunny, the big SPD terrain and tetra, the generated terrain, SPD
-    /// sombrero and tetra, which this rule finds) render as fast or faster at one cell an item
-    /// and build in 0.6–0.75 of the time, while objects filling their box (SPD lattice and
-    /// jacks: no cell of such a grid empty) want four or more (docs/measurements.md, "The
-    /// world grid's density on scenes of one level").
+    /// hugrt's default: 4 cells an item, or one when the world grid holds nine tenths of the
+    /// objects or more and more than half of its cells would hold nothing at one cell an item
+    /// (`mostly_empty`, from the objects' boxes). A scene of one size class with no cluster
+    /// kept is one uniform grid, and the best density of a uniform grid depends on the scene:
+    /// surfaces (the bunny, nefertiti, the big SPD terrain, teapot and tetra, the generated
+    /// terrain, SPD sombrero, teapot and tetra, which this rule finds) render as fast or
+    /// faster at one cell an item and build in 0.6–0.8 of the time, while objects filling
+    /// their box (SPD lattice and jacks: no cell of such a grid empty) want four or more
+    /// (docs/measurements.md, "The world grid's density on scenes of one level" and "A
+    /// surface beside a small cluster").
     Auto,
 }
+
+/// The share of the objects the world grid must hold itself for [`WorldCells::Auto`] to
+/// weigh one cell an item: it is then as good as the only grid. Nefertiti's world grid holds
+/// all but a cluster of 16 triangles, the big SPD teapot's all but 202; the kitchen's holds
+/// 2% of its objects, the rest in 87 cluster grids.
+const ALONE: f64 = 0.9;
 
 /// The world grid's cells an item under [`WorldCells::Auto`] where it is not mostly empty.
 pub const WORLD_DENSITY: f64 = 4.0;
@@ -303,7 +310,7 @@ pub fn plan(store: &PrimStore, boxes: &[Aabb], s: &Recipe) -> (Vec<GridPlan>, Re
     }
     let world_factor = match s.world {
         WorldCells::Auto
-            if grids.len() == 1
+            if grids[0].plan.objects.len() as f64 >= ALONE * finite_count as f64
                 && mostly_empty(boxes, &grids[0].plan.objects, &grids[0].world, 1.0) =>
         {
             1.0

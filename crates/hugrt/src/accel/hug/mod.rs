@@ -90,14 +90,15 @@ use crate::geometry::Ray;
 ///   and 4 at 1.14 and 1.04–1.21 (the terrain's build, 524,288 triangles); incoherent rays
 ///   trace alike at 4 and 8 (bunny, nefertiti, city ±4%, kitchen 5% slower at 4). With
 ///   offsets kept for occupied cells only, the finer grids cost a few bytes per primitive
-///   more than the papers' settings. Where the world grid is the only grid (one size class,
-///   no cluster kept) and the objects' boxes leave more than half of its cells empty at one
-///   cell an item (a surface: the bunny, the big SPD terrain and tetra, the generated
-///   terrain, SPD sombrero and tetra), it gets one cell an item (`world=auto`,
-///   [`WorldCells::Auto`]): the bunny's and the big terrain's 512² renders were 1.14 behind
-///   the best grid density by their build alone, and come to 1.06 and 1.08. SPD lattice and
-///   jacks, whose objects fill their box, keep 4; so do SPD mount (its triangles' boxes meet
-///   most cells), nefertiti and the big teapot (each keeps a cluster's grid).
+///   more than the papers' settings. Where the world grid holds nine tenths of the objects or
+///   more (one size class, or a small cluster beside it) and their boxes leave more than half
+///   of its cells empty at one cell an item (a surface: the bunny, nefertiti, the big SPD
+///   terrain, teapot and tetra, the generated terrain, SPD sombrero, teapot and tetra), it
+///   gets one cell an item (`world=auto`, [`WorldCells::Auto`]): the bunny's and the big
+///   terrain's 512² renders were 1.14 behind the best grid density by their build alone, and
+///   come to 1.06 and 1.08; nefertiti's 1.13–1.15 came to 1.08–1.11. SPD lattice and jacks,
+///   whose objects fill their box, keep 4; so does SPD mount (its triangles' boxes meet most
+///   cells).
 /// * `prune`: large objects only (box over 16 cells or more); `prune=false` worst 1.27 (gears'
 ///   slivers), and testing every object costs build time for nothing on meshes.
 /// * `min_cluster` 16 and `loose` 0.25: `min_cluster=1` worst 1.39, `min_cluster=64` 1.43,
@@ -241,7 +242,7 @@ impl Settings for HugSettings {
         key!("cluster", cluster: ClusterRule, (), "cluster3d (EG95: Isolate/Cluster3d on projections) or graph (SCG97: box-intersection components)"),
         key!("alpha", alpha: f32, 0.0..=100.0, "delta = alpha * the level's mean length; projections (cluster3d) or boxes (graph) closer than delta join (EG95: 0.01)"),
         key!("crowd", crowd: Option<usize>, (1..=1 << 30, "off"), "cluster=graph: objects sharing a binning cell with more than this many are joined untested (hugrt's), or off: every pair tested (SCG97)"),
-        key!("world", world: WorldCells, (), "cells of the world grid: auto (4 per item, 1 where it is the only grid and mostly empty), 2n (EG95), sqrt2 (SCG97) or cells per item"),
+        key!("world", world: WorldCells, (), "cells of the world grid: auto (4 per item, 1 where it holds 90% of the objects and is mostly empty), 2n (EG95), sqrt2 (SCG97) or cells per item"),
         key!("density", density: f32, 0.001..=1000.0, "cells per item of a cluster grid (EG95: 1)"),
         key!("cells", cells: CellShape, (), "cubical: cells as cubical as possible (hugrt's); cube-root: as many on every axis (EG95, SCG97)"),
         key!("giveback", giveback: bool, (), "true: small (min_cluster) and loose clusters go back to the enclosing grid (hugrt's); false: every cluster is gridded (the papers)"),
@@ -563,6 +564,45 @@ mod tests {
             ],
             &rays,
         );
+    }
+
+    /// `world=auto` weighs one cell an item for a surface whose world grid holds nearly all
+    /// the objects, even beside a small cluster grid (nefertiti's 16 triangles, the big
+    /// teapot's 202), and keeps four where the clusters hold more than a tenth of them.
+    #[test]
+    fn a_surface_beside_a_small_cluster_gets_one_cell_an_item() {
+        use crate::accel::hierarchy::Resolution;
+        use crate::geometry::Vec3;
+        let world_cells = |cluster: usize| {
+            // A sheet of 40 × 40 squares (3,200 triangles) and, above it, a row of `cluster`
+            // triangles a thousandth of their size, touching: one cluster of a lower level.
+            let mut tris: Vec<[Vec3; 3]> = (0..1600)
+                .flat_map(|i| {
+                    let c = Vec3::new((i % 40) as f32, (i / 40) as f32, 0.0);
+                    let (x, y, xy) = (c + Vec3::X, c + Vec3::Y, c + Vec3::X + Vec3::Y);
+                    [[c, x, y], [x, xy, y]]
+                })
+                .collect();
+            tris.extend((0..cluster).map(|i| {
+                let c = Vec3::new(20.0 + i as f32 * 1e-3, 20.0, 5.0);
+                [c, c + Vec3::X * 1e-3, c + Vec3::Y * 1e-3]
+            }));
+            let scene = crate::scene::Scene::from_triangles(tris);
+            let (store, boxes) = store_with_boxes(&scene, TriangleStorage::Copy).unwrap();
+            let (plans, report) = build::plan(&store, &boxes, &HugSettings::default().recipe());
+            assert_eq!(
+                plans.len(),
+                2,
+                "the world and the cluster's grid: {report:?}"
+            );
+            let items = (plans[0].objects.len() + plans[0].children.len()) as f64;
+            match plans[0].resolution {
+                Resolution::Cubical(cells) => cells / items,
+                ref r => panic!("{r:?}"),
+            }
+        };
+        assert_eq!(world_cells(40), 1.0);
+        assert_eq!(world_cells(400), build::WORLD_DENSITY);
     }
 
     /// Every occupied cell's box of what it holds (`hierarchy::bounds`) holds every point of
