@@ -206,6 +206,108 @@ pub unsafe fn packet_rays_avx2(b: &Block, rays: &BlockRays) -> [Lanes; LANES] {
     out
 }
 
+/// Rays a [`RayRows`] holds: a grid packet's ([`crate::accel::packet::MAX_PACKET`]).
+pub const ROW_RAYS: usize = 32;
+
+/// Up to [`ROW_RAYS`] rays as [`triangle_rays`] reads them: each ray's [`BlockRay`] numbers,
+/// lane by lane.
+#[derive(Clone, Copy)]
+pub struct RayRows {
+    o: [[f32; ROW_RAYS]; 3],
+    rows: [[[f32; ROW_RAYS]; 3]; 2],
+}
+
+impl RayRows {
+    /// The rays `rays` in lanes `0..rays.len()` (at most [`ROW_RAYS`]); the lanes beyond
+    /// repeat the last ray.
+    #[inline]
+    pub fn new(rays: &[BlockRay]) -> Self {
+        let last = rays.len().min(ROW_RAYS) - 1;
+        let ray = |l: usize| &rays[l.min(last)];
+        RayRows {
+            o: std::array::from_fn(|a| std::array::from_fn(|l| ray(l).o[a])),
+            rows: std::array::from_fn(|r| {
+                std::array::from_fn(|a| std::array::from_fn(|l| ray(l).rows[r][a]))
+            }),
+        }
+    }
+}
+
+/// One triangle against the rays of `wanted` among a [`RayRows`]' (sixteen at a time, AVX-512):
+/// bit `r` of [`Lanes::crossed`] where ray `r` crosses it, of [`Lanes::redo`] where the scalar
+/// test decides, for the rays of `wanted`'s halves (others' bits are left clear). What
+/// [`lanes`] finds for each ray with the triangle in a lane, bit for bit: the same arithmetic
+/// in the same order, the masks straight from the comparisons. The grids' packet walk
+/// compiled for AVX-512 tests a cell's triangles so, where the AVX2 kernel
+/// ([`packet_rays_avx2`]) takes four triangles against eight rays a call.
+///
+/// # Safety
+/// The processor must support AVX-512 F.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[inline]
+pub unsafe fn triangle_rays_avx512(tri: &[Vec3; 3], rays: &RayRows, wanted: u32) -> Lanes {
+    use std::arch::x86_64::*;
+    let (mut crossed, mut redo) = (0u32, 0u32);
+    for half in 0..ROW_RAYS / 16 {
+        let at = 16 * half;
+        if (wanted >> at) & 0xffff == 0 {
+            continue;
+        }
+        // SAFETY: each reads sixteen `f32` of one `[f32; ROW_RAYS]` from `at`, within it
+        // (`at + 16 <= ROW_RAYS`), unaligned.
+        let load = |x: &[f32; ROW_RAYS]| unsafe { _mm512_loadu_ps(x.as_ptr().add(at)) };
+        let o = [load(&rays.o[0]), load(&rays.o[1]), load(&rays.o[2])];
+        let row = |r: usize| {
+            [
+                load(&rays.rows[r][0]),
+                load(&rays.rows[r][1]),
+                load(&rays.rows[r][2]),
+            ]
+        };
+        let (rx, ry) = (row(0), row(1));
+        let s = |x: f32| _mm512_set1_ps(x);
+        let vertex = |k: usize| {
+            [
+                _mm512_sub_ps(s(tri[k].x), o[0]),
+                _mm512_sub_ps(s(tri[k].y), o[1]),
+                _mm512_sub_ps(s(tri[k].z), o[2]),
+            ]
+        };
+        let p = [vertex(0), vertex(1), vertex(2)];
+        // `r·p` as glam's `dot` sums it: `(r.x·p.x + r.y·p.y) + r.z·p.z`.
+        let dot = |r: &[__m512; 3], p: &[__m512; 3]| {
+            _mm512_add_ps(
+                _mm512_add_ps(_mm512_mul_ps(r[0], p[0]), _mm512_mul_ps(r[1], p[1])),
+                _mm512_mul_ps(r[2], p[2]),
+            )
+        };
+        let (ax, ay) = (dot(&rx, &p[0]), dot(&ry, &p[0]));
+        let (bx, by) = (dot(&rx, &p[1]), dot(&ry, &p[1]));
+        let (cx, cy) = (dot(&rx, &p[2]), dot(&ry, &p[2]));
+        let u = _mm512_sub_ps(_mm512_mul_ps(cx, by), _mm512_mul_ps(cy, bx));
+        let v = _mm512_sub_ps(_mm512_mul_ps(ax, cy), _mm512_mul_ps(ay, cx));
+        let w = _mm512_sub_ps(_mm512_mul_ps(bx, ay), _mm512_mul_ps(by, ax));
+        let zero = _mm512_setzero_ps();
+        macro_rules! any {
+            ($cmp:ident) => {
+                _mm512_cmp_ps_mask::<$cmp>(u, zero)
+                    | _mm512_cmp_ps_mask::<$cmp>(v, zero)
+                    | _mm512_cmp_ps_mask::<$cmp>(w, zero)
+            };
+        }
+        let eq_zero = any!(_CMP_EQ_OQ);
+        let mixed = any!(_CMP_LT_OQ) & any!(_CMP_GT_OQ);
+        // `|det|` by clearing the sign bit, as the other kernels' `andnot` with -0.
+        let det_abs = _mm512_abs_ps(_mm512_add_ps(_mm512_add_ps(u, v), w));
+        let det_ok = _mm512_cmp_ps_mask::<_CMP_LT_OQ>(det_abs, s(f32::INFINITY))
+            & _mm512_cmp_ps_mask::<_CMP_GT_OQ>(det_abs, zero);
+        crossed |= ((!eq_zero & !mixed & det_ok) as u32) << at;
+        redo |= (eq_zero as u32) << at;
+    }
+    Lanes { crossed, redo }
+}
+
 /// Tests the block's four lanes against the ray, with the arithmetic of the target's fastest
 /// kernel.
 #[inline(always)]
@@ -373,6 +475,42 @@ mod tests {
                 }
             }
             prop_assert_eq!(lanes(&b, &br), portable);
+        }
+
+        /// The AVX-512 kernel finds for each ray of the halves wanted what the kernel finds
+        /// for it alone, and leaves the other halves' bits clear.
+        #[test]
+        fn the_sixteen_ray_kernel_equals_the_kernel_ray_by_ray(
+            (p, q, r) in (point(), point(), point()),
+            unbounded in prop::bool::weighted(0.1),
+            rays in prop::collection::vec((point(), point()), 1..=ROW_RAYS),
+            wanted in prop_oneof![Just(u32::MAX), Just(0xffff), Just(0xffff_0000), any::<u32>()],
+        ) {
+            let tri = [p, if unbounded { Vec3::new(f32::NAN, q.y, q.z) } else { q }, r];
+            let each: Vec<BlockRay> = rays
+                .iter()
+                .map(|&(o, d)| {
+                    let d = if d == Vec3::ZERO { Vec3::X } else { d };
+                    BlockRay::new(&PreparedRay::new(&Ray::new(o, d, 0.0, f32::INFINITY)))
+                })
+                .collect();
+            #[cfg(target_arch = "x86_64")]
+            if crate::accel::simd::avx512_available() {
+                let mut b = Block::EMPTY;
+                b.set(0, &tri, 0);
+                // SAFETY: AVX-512 F is present.
+                let got = unsafe { triangle_rays_avx512(&tri, &RayRows::new(&each), wanted) };
+                for l in 0..ROW_RAYS {
+                    let half = 0xffffu32 << (l / 16 * 16);
+                    let want = if wanted & half != 0 {
+                        lanes(&b, &each[l.min(each.len() - 1)])
+                    } else {
+                        Lanes { crossed: 0, redo: 0 }
+                    };
+                    prop_assert_eq!(got.crossed >> l & 1, want.crossed & 1, "ray {}", l);
+                    prop_assert_eq!(got.redo >> l & 1, want.redo & 1, "ray {}", l);
+                }
+            }
         }
 
         /// The packet kernel finds for each of its eight rays what the kernel finds for it

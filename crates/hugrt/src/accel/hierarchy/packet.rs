@@ -11,8 +11,10 @@
 //! cell each ray's own rectangle is found. Each occupied cell's objects are tested for the rays
 //! whose rectangle holds it and that meet the box of what the cell holds ([`super::bounds`]):
 //! the cell is fetched once for all of them, and its triangles are met four at a time by
-//! eight rays at a time with the packet kernel ([`crate::accel::block::packet_rays_avx2`],
-//! bit for bit the single walk's test). A grid a cell references is entered by the packet,
+//! eight rays at a time with the packet kernel ([`crate::accel::block::packet_rays_avx2`]),
+//! or one at a time by sixteen rays where AVX-512 allows
+//! ([`crate::accel::block::triangle_rays_avx512`]), bit for bit the single walk's test either
+//! way. A grid a cell references is entered by the packet,
 //! with every live ray that has not walked that grid yet (each ray walks a grid once, as
 //! alone: [`Mailbox`]), not only the rays whose rectangle holds the cell: the others would
 //! enter it from cells of their own, each part of the packet setting the grid up again.
@@ -38,7 +40,9 @@ use super::cells::BLOCK;
 use super::header::{any_meets, slab_lanes};
 use super::walk::split_grids;
 use super::{Frame, GRID_TAG, GridHierarchy, NO_FRAME};
-use crate::accel::block::{Block, BlockRay, BlockRays, LANES, Lanes as Lanes8};
+#[cfg(target_arch = "x86_64")]
+use crate::accel::block::triangle_rays_avx512;
+use crate::accel::block::{Block, BlockRay, BlockRays, LANES, Lanes as Lanes8, RayRows};
 use crate::accel::packet::{MAX_PACKET, PACKET, each_lane};
 use crate::accel::{Counters, HitSink, Mailbox, Primitives};
 // The lanes' lesser and greater without `f32::min`'s care for NaN (`min` and `max` were 17%
@@ -177,12 +181,26 @@ pub(super) struct Packet<'a, S> {
     rays: &'a [PreparedRay; GRID_PACKET],
     /// The rays lane by lane, as a grid without a frame of its own reads them.
     lanes: &'a RayLanes,
-    /// The rays as the packet triangle kernel reads them, by group of [`PACKET`].
-    block_rays: &'a [BlockRays; GROUPS],
+    /// The rays as the triangle kernel of the walk's instructions reads them.
+    kernel: Kernel<'a>,
     sinks: &'a mut [S],
     mail: &'a mut [Mailbox; GRID_PACKET],
     /// Rays whose sink has not stopped the walk.
     live: u32,
+}
+
+/// A packet's rays as the triangle test of a cell reads them ([`GridHierarchy::test_triangles_packet`]).
+#[derive(Clone, Copy)]
+#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+enum Kernel<'a> {
+    /// AVX2: four triangles against eight rays a call ([`crate::accel::block::packet_rays_avx2`]),
+    /// the rays by group of [`PACKET`].
+    Eight(&'a [BlockRays; GROUPS]),
+    /// AVX-512: one triangle against sixteen rays a step, the halves of the packet that hold
+    /// rays wanted ([`triangle_rays_avx512`]). On the packets' triangle tests, which were a
+    /// third of the big terrain's camera frame, 1.03-1.08 faster on the meshes' camera and
+    /// shadow rays (docs/measurements.md, "Sixteen rays a triangle").
+    Sixteen(&'a RayRows),
 }
 
 impl GridHierarchy {
@@ -216,16 +234,22 @@ impl GridHierarchy {
         let prepared: [PreparedRay; GRID_PACKET] =
             std::array::from_fn(|l| PreparedRay::new(&rays[l.min(n - 1)]));
         let mut mail: [Mailbox; GRID_PACKET] = std::array::from_fn(|_| Mailbox::default());
-        let block_rays: [BlockRays; GROUPS] = std::array::from_fn(|g| {
-            BlockRays::new(&std::array::from_fn(|l| {
-                BlockRay::new(&prepared[g * PACKET + l])
-            }))
-        });
+        let each: [BlockRay; GRID_PACKET] = std::array::from_fn(|l| BlockRay::new(&prepared[l]));
+        let (groups, rows);
+        let kernel = if self.avx512 {
+            rows = RayRows::new(&each);
+            Kernel::Sixteen(&rows)
+        } else {
+            groups = std::array::from_fn(|g| {
+                BlockRays::new(&std::array::from_fn(|l| each[g * PACKET + l]))
+            });
+            Kernel::Eight(&groups)
+        };
         let lanes = RayLanes::new(&prepared, None);
         let mut packet = Packet {
             rays: &prepared,
             lanes: &lanes,
-            block_rays: &block_rays,
+            kernel,
             sinks: &mut sinks[..n],
             mail: &mut mail,
             live: u32::MAX >> (32 - n),
@@ -680,10 +704,10 @@ impl GridHierarchy {
         }
     }
 
-    /// Tests triangles `tris` (store entries) for the rays of `here` still live: four at a
-    /// time against all eight rays with the packet kernel ([`crate::accel::block`]), whose
-    /// bits are the scalar test's, then in each ray's lane order the `t` of a crossed lane, as
-    /// the single walk finds it. A ray's mailbox records only the triangles it crosses: a
+    /// Tests triangles `tris` (store entries) for the rays of `here` still live with the
+    /// packet's [`Kernel`] (four triangles at a time against eight rays, or one against
+    /// sixteen), whose bits are the scalar test's, then in each ray's lane order the `t` of a
+    /// crossed lane, as the single walk finds it. A ray's mailbox records only the triangles it crosses: a
     /// triangle it misses misses again, and only a hit must not be offered twice.
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
@@ -695,6 +719,32 @@ impl GridHierarchy {
         level: usize,
         counters: &mut C,
     ) {
+        let groups = match packet.kernel {
+            Kernel::Eight(groups) => groups,
+            Kernel::Sixteen(rows) => {
+                // Four triangles read before any is tested: one at a time, each test waited
+                // for its triangle's load (the big terrain's camera rays 1.3x slower).
+                for chunk in tris.chunks(LANES) {
+                    let mut held = [[Vec3::ZERO; 3]; LANES];
+                    for (t, &r) in chunk.iter().enumerate() {
+                        held[t] = self
+                            .store
+                            .triangle(r)
+                            .expect("the cell's first entries are triangles");
+                    }
+                    for (&r, tri) in chunk.iter().zip(&held) {
+                        // SAFETY: `Sixteen` is made only where `avx512` is set, which is
+                        // only where AVX-512 F is present (`build`).
+                        let lanes = unsafe { triangle_rays_avx512(tri, rows, here & packet.live) };
+                        for _ in 0..(here & packet.live).count_ones() {
+                            counters.prim_test(level);
+                        }
+                        self.offer_crossed(packet, r, tri, lanes, here, level, counters);
+                    }
+                }
+                return;
+            }
+        };
         for chunk in tris.chunks(LANES) {
             let mut block = Block::EMPTY;
             for (t, &r) in chunk.iter().enumerate() {
@@ -709,13 +759,12 @@ impl GridHierarchy {
                 crossed: 0,
                 redo: 0,
             }; LANES];
-            for g in 0..GROUPS {
+            for (g, rays) in groups.iter().enumerate() {
                 if (here & packet.live) >> (g * PACKET) & 0xff == 0 {
                     continue;
                 }
                 // SAFETY: `simd` is set only where AVX2 is present (`build`).
-                let group =
-                    unsafe { crate::accel::block::packet_rays_avx2(&block, &packet.block_rays[g]) };
+                let group = unsafe { crate::accel::block::packet_rays_avx2(&block, rays) };
                 for (all, m) in found.iter_mut().zip(&group) {
                     all.crossed |= m.crossed << (g * PACKET);
                     all.redo |= m.redo << (g * PACKET);
@@ -726,25 +775,42 @@ impl GridHierarchy {
             }
             // Triangle by triangle, in store order, as each ray's own walk meets them.
             for (t, (&r, lanes)) in chunk.iter().zip(&found).enumerate() {
-                let todo = (lanes.crossed | lanes.redo) & here & packet.live;
-                for l in each_lane(todo) {
-                    if !packet.mail[l].first_visit(r) {
-                        continue;
-                    }
-                    let ray = &packet.rays[l];
-                    let sink = &mut packet.sinks[l];
-                    let tri = block.triangle(t);
-                    let hit = if lanes.crossed >> l & 1 != 0 {
-                        crossing_t(&tri, &ray.ray, ray.ray.tmin, sink.tmax())
-                    } else {
-                        intersect_triangle(ray, &tri, ray.ray.tmin, sink.tmax())
-                    };
-                    if let Some(t) = hit {
-                        counters.prim_hit(level);
-                        if sink.offer(t, || self.store.id(r)) {
-                            packet.live &= !(1 << l);
-                        }
-                    }
+                self.offer_crossed(packet, r, &block.triangle(t), *lanes, here, level, counters);
+            }
+        }
+    }
+
+    /// Offers triangle `r` (vertices `tri`) to the rays of `here` still live that `lanes`
+    /// finds crossing it (their `t` from the scalar test's [`crossing_t`]) or leaves to the
+    /// scalar test, each ray once ([`Mailbox`]).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn offer_crossed<C: Counters, S: HitSink>(
+        &self,
+        packet: &mut Packet<'_, S>,
+        r: u32,
+        tri: &[Vec3; 3],
+        lanes: Lanes8,
+        here: u32,
+        level: usize,
+        counters: &mut C,
+    ) {
+        let todo = (lanes.crossed | lanes.redo) & here & packet.live;
+        for l in each_lane(todo) {
+            if !packet.mail[l].first_visit(r) {
+                continue;
+            }
+            let ray = &packet.rays[l];
+            let sink = &mut packet.sinks[l];
+            let hit = if lanes.crossed >> l & 1 != 0 {
+                crossing_t(tri, &ray.ray, ray.ray.tmin, sink.tmax())
+            } else {
+                intersect_triangle(ray, tri, ray.ray.tmin, sink.tmax())
+            };
+            if let Some(t) = hit {
+                counters.prim_hit(level);
+                if sink.offer(t, || self.store.id(r)) {
+                    packet.live &= !(1 << l);
                 }
             }
         }
