@@ -14,7 +14,8 @@
 //! eight rays at a time with the packet kernel ([`crate::accel::block::packet_rays_avx2`]),
 //! or one at a time by sixteen rays where AVX-512 allows
 //! ([`crate::accel::block::triangle_rays_avx512`]), bit for bit the single walk's test either
-//! way. A grid a cell references is entered by the packet,
+//! way; a cell met by a few rays of the packet only has them test its triangles each alone
+//! ([`FEW`]). A grid a cell references is entered by the packet,
 //! with every live ray that has not walked that grid yet (each ray walks a grid once, as
 //! alone: [`Mailbox`]), not only the rays whose rectangle holds the cell: the others would
 //! enter it from cells of their own, each part of the packet setting the grid up again.
@@ -68,6 +69,15 @@ pub(crate) const GRID_PACKET: usize = MAX_PACKET;
 /// camera rays; 8 kept less of the shadow rays' gain (4: kitchen, nefertiti and mount shadow
 /// rays 1.05-1.1x faster than without the check).
 const SPREAD: u64 = 4;
+
+/// Rays of a packet in one cell at most which test its triangles each alone, eight triangles
+/// at a time ([`GridHierarchy::test_objects`], the single walk's test), rather than with the
+/// packet kernel, whose steps take eight or sixteen rays: half the cells the packets of the
+/// meshes' camera and shadow rays test are tested by one or two of their rays, and the big
+/// terrain's camera and shadow rays ran 1.03 and 1.11x faster so (4 to 8 measured alike; 2
+/// gained less, 12 lost on the terrain's camera rays; docs/measurements.md, "Few rays in a
+/// cell").
+const FEW: u32 = 5;
 
 /// The rays (a bit each) whose segment `[t0, t1]` meets the box `(lo, hi)` of what a cell holds
 /// ([`super::bounds`]): the slab test lane by lane, with [`lesser`] and [`greater`]; a NaN slab
@@ -650,8 +660,9 @@ impl GridHierarchy {
     }
 
     /// Tests the references `start..end` of one cell: its objects for the rays of `here`
-    /// (those that meet the box of what the cell holds), then the grids it references with
-    /// every live ray of the packet that has not walked them.
+    /// (those that meet the box of what the cell holds; its triangles with the packet kernel
+    /// where more than [`FEW`] rays of `here` are live, each ray alone otherwise), then the
+    /// grids it references with every live ray of the packet that has not walked them.
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn test_cell_packet<P: Primitives, C: Counters, S: HitSink>(
@@ -666,7 +677,7 @@ impl GridHierarchy {
     ) {
         let (mut refs, grids) = split_grids(&self.refs[start..end]);
         #[cfg(target_arch = "x86_64")]
-        if self.simd && (here & packet.live).count_ones() > 1 {
+        if self.simd && (here & packet.live).count_ones() > FEW {
             let triangles = self.store.triangle_count();
             let tri_count = refs.partition_point(|&r| (r as usize) < triangles);
             self.test_triangles_packet(&refs[..tri_count], packet, here, level, counters);
