@@ -209,8 +209,8 @@ pub unsafe fn packet_rays_avx2(b: &Block, rays: &BlockRays) -> [Lanes; LANES] {
 /// Rays a [`RayRows`] holds: a grid packet's ([`crate::accel::packet::MAX_PACKET`]).
 pub const ROW_RAYS: usize = 32;
 
-/// Up to [`ROW_RAYS`] rays as [`triangle_rays`] reads them: each ray's [`BlockRay`] numbers,
-/// lane by lane.
+/// Up to [`ROW_RAYS`] rays as the AVX-512 packet kernel (`triangle_rays_avx512`) reads them:
+/// each ray's [`BlockRay`] numbers, lane by lane.
 #[derive(Clone, Copy)]
 pub struct RayRows {
     o: [[f32; ROW_RAYS]; 3],

@@ -74,9 +74,9 @@ const SPREAD: u64 = 4;
 /// at a time ([`GridHierarchy::test_objects`], the single walk's test), rather than with the
 /// packet kernel, whose steps take eight or sixteen rays: half the cells the packets of the
 /// meshes' camera and shadow rays test are tested by one or two of their rays, and the big
-/// terrain's camera and shadow rays ran 1.03 and 1.11x faster so (4 to 8 measured alike; 2
-/// gained less, 12 lost on the terrain's camera rays; docs/measurements.md, "Few rays in a
-/// cell").
+/// terrain's camera and shadow rays ran 1.03 and 1.10× faster so (3 to 8 measured alike; 2
+/// gained less, 12 lost on the terrain's camera rays; docs/measurements.md, "The packets'
+/// triangle tests").
 const FEW: u32 = 5;
 
 /// The rays (a bit each) whose segment `[t0, t1]` meets the box `(lo, hi)` of what a cell holds
@@ -199,17 +199,18 @@ pub(super) struct Packet<'a, S> {
     live: u32,
 }
 
-/// A packet's rays as the triangle test of a cell reads them ([`GridHierarchy::test_triangles_packet`]).
+/// A packet's rays as the triangle test of a cell reads them
+/// ([`GridHierarchy::test_triangles_packet`]).
 #[derive(Clone, Copy)]
 #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
 enum Kernel<'a> {
-    /// AVX2: four triangles against eight rays a call ([`crate::accel::block::packet_rays_avx2`]),
-    /// the rays by group of [`PACKET`].
+    /// AVX2: four triangles against eight rays a call
+    /// ([`crate::accel::block::packet_rays_avx2`]), the rays by group of [`PACKET`].
     Eight(&'a [BlockRays; GROUPS]),
     /// AVX-512: one triangle against sixteen rays a step, the halves of the packet that hold
-    /// rays wanted ([`triangle_rays_avx512`]). On the packets' triangle tests, which were a
-    /// third of the big terrain's camera frame, 1.03-1.08 faster on the meshes' camera and
-    /// shadow rays (docs/measurements.md, "Sixteen rays a triangle").
+    /// rays wanted (`block::triangle_rays_avx512`). The packets' triangle tests were about a
+    /// third of the big terrain's camera frame; the meshes' camera and shadow rays ran
+    /// 1.03–1.12× faster with it (docs/measurements.md, "The packets' triangle tests").
     Sixteen(&'a RayRows),
 }
 
@@ -718,8 +719,9 @@ impl GridHierarchy {
     /// Tests triangles `tris` (store entries) for the rays of `here` still live with the
     /// packet's [`Kernel`] (four triangles at a time against eight rays, or one against
     /// sixteen), whose bits are the scalar test's, then in each ray's lane order the `t` of a
-    /// crossed lane, as the single walk finds it. A ray's mailbox records only the triangles it crosses: a
-    /// triangle it misses misses again, and only a hit must not be offered twice.
+    /// crossed lane, as the single walk finds it. A ray's mailbox records only the triangles
+    /// it crosses: a triangle it misses misses again, and only a hit must not be offered
+    /// twice.
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
     fn test_triangles_packet<C: Counters, S: HitSink>(

@@ -51,8 +51,8 @@ pub enum WorldCells {
     /// terrain, SPD sombrero, teapot and tetra, which this rule finds) render as fast or
     /// faster at one cell an item and build in 0.6–0.8 of the time, while objects filling
     /// their box (SPD lattice and jacks: no cell of such a grid empty) want four or more
-    /// (docs/measurements.md, "The world grid's density on scenes of one level" and "A
-    /// surface beside a small cluster").
+    /// (docs/measurements.md, "The world grid's density on scenes of one level" and "The
+    /// packets' triangle tests, and a surface beside a small cluster").
     Auto,
 }
 
