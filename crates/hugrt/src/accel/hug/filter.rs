@@ -130,20 +130,33 @@ impl Filter {
             Filter::Two(fraction) => vec![split(fraction)],
             Filter::Gap(fraction) => vec![gap_split(lengths, split(fraction))],
         };
-        let mut levels = vec![Level::default(); thresholds.len() + 1];
-        for (i, &l) in lengths.iter().enumerate() {
-            let k = thresholds.partition_point(|&f| f <= l);
-            levels[k].objects.push(i as u32);
+        let level_of = |l: f32| thresholds.partition_point(|&f| f <= l);
+        // Each level's count and its shortest and longest lengths first, so that each list
+        // is made at its size: grown by pushes, copied at every doubling, the lists took a
+        // third of the filter's time on the big SPD terrain's 524,288 triangles, all of one
+        // level, whose list is now made at once.
+        let mut census = vec![(0usize, f32::INFINITY, 0.0f32); thresholds.len() + 1];
+        for &l in lengths {
+            let (count, lo, hi) = &mut census[level_of(l)];
+            (*count, *lo, *hi) = (*count + 1, lo.min(l), hi.max(l));
+        }
+        let mut levels: Vec<Level> = census
+            .iter()
+            .map(|&(count, lo, hi)| Level {
+                objects: if count == lengths.len() {
+                    (0..count as u32).collect()
+                } else {
+                    Vec::with_capacity(count)
+                },
+                mean_length: (lo + hi) * 0.5,
+            })
+            .collect();
+        if levels.iter().all(|l| l.objects.len() < lengths.len()) {
+            for (i, &l) in lengths.iter().enumerate() {
+                levels[level_of(l)].objects.push(i as u32);
+            }
         }
         levels.retain(|l| !l.objects.is_empty());
-        for level in &mut levels {
-            let (lo, hi) = level
-                .objects
-                .iter()
-                .map(|&i| lengths[i as usize])
-                .fold((f32::INFINITY, 0.0f32), |(a, b), l| (a.min(l), b.max(l)));
-            level.mean_length = (lo + hi) * 0.5;
-        }
         levels
     }
 }
