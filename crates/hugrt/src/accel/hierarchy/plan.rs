@@ -52,7 +52,13 @@ pub(crate) fn mostly_empty(boxes: &[Aabb], objects: &[u32], bounds: &Aabb, facto
     }
     let res = cubical_resolution(bounds.extent(), objects.len() as f64 * factor);
     let grid = GridHeader::over(bounds, res);
-    let cells = grid.cells();
+    occupied_cells(boxes, objects, &grid).is_some_and(|count| 2 * count < grid.cells())
+}
+
+/// How many cells of `grid` the boxes of `objects` meet, or `None` where a chunk of the
+/// objects would mark more than [`MARKS_PER_ITEM`] cells an object ([`mostly_empty`]).
+fn occupied_cells(boxes: &[Aabb], objects: &[u32], grid: &GridHeader) -> Option<usize> {
+    let (res, cells) = (grid.res, grid.cells());
     // A chunk of the objects a task, each with a table of its own: few tables to merge.
     let chunk = objects
         .len()
@@ -69,6 +75,25 @@ pub(crate) fn mostly_empty(boxes: &[Aabb], objects: &[u32], bounds: &Aabb, facto
                 let (l, h) = grid.cell_range(&boxes[i as usize]);
                 let volume = (0..3).map(|a| (h[a] - l[a] + 1) as u64).product::<u64>();
                 budget = budget.checked_sub(volume)?;
+                if (h[0] - l[0]) | (h[1] - l[1]) | (h[2] - l[2]) <= 1 {
+                    // At most two cells on every axis (nearly every box of a surface at one
+                    // cell an item): four rows, each its one or two cells' bits at once, a
+                    // row marked twice where an axis has one cell, rather than the loops
+                    // below, whose one or two steps an axis vary from box to box (the big
+                    // SPD terrain's marking 3.7-4.1 -> 2.7-3.2 ms at two threads).
+                    let pair = 1u64 | ((h[0] - l[0]) as u64) << 1;
+                    for z in [l[2], h[2]] {
+                        for y in [l[1], h[1]] {
+                            let c = z as usize * rxy + y as usize * rx + l[0] as usize;
+                            bits[c / 64] |= pair << (c % 64);
+                            if c % 64 == 63 && pair == 3 {
+                                // The second cell opens the next word.
+                                bits[c / 64 + 1] |= 1;
+                            }
+                        }
+                    }
+                    continue;
+                }
                 for z in l[2] as usize..=h[2] as usize {
                     for y in l[1] as usize..=h[1] as usize {
                         let row = z * rxy + y * rx;
@@ -87,11 +112,7 @@ pub(crate) fn mostly_empty(boxes: &[Aabb], objects: &[u32], bounds: &Aabb, facto
                 Some(a)
             },
         );
-    let Some(occupied) = marked else {
-        return false;
-    };
-    let count: usize = occupied.iter().map(|w| w.count_ones() as usize).sum();
-    2 * count < cells
+    Some(marked?.iter().map(|w| w.count_ones() as usize).sum())
 }
 
 /// Which objects are referenced only from the cells their surface meets (EG95 §1.2.1's
@@ -277,5 +298,48 @@ mod tests {
         let pile = vec![cube(Vec3::ZERO, 1.0); 100_000];
         assert!(!mostly_empty(&pile, &ids(pile.len()), &bounds(&pile), 4.0));
         assert!(!mostly_empty(&pile, &[], &bounds(&pile), 4.0));
+    }
+
+    /// The marking counts the cells a brute-force count over every box's cells finds: boxes of
+    /// one or two cells an axis (the rows' two bits at once, across the words' ends, the rows
+    /// of 67 cells beginning anywhere in a word) and larger ones (the loops).
+    #[test]
+    fn the_occupied_cells_are_counted_exactly() {
+        let grid = GridHeader::over(
+            &Aabb::new(Vec3::ZERO, Vec3::new(67.0, 5.0, 3.0)),
+            [67, 5, 3],
+        );
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let boxes: Vec<Aabb> = (0..300)
+            .map(|k| {
+                let lo = Vec3::new(67.0 * next(), 5.0 * next(), 3.0 * next());
+                // Mostly within a cell or across one plane; every fifth box larger.
+                let size = if k % 5 == 0 { 3.0 } else { 0.9 };
+                Aabb::new(lo, lo + Vec3::new(next(), next(), next()) * size)
+            })
+            .collect();
+        for n in [1, 7, 40, 300] {
+            let ids: Vec<u32> = (0..n).collect();
+            let mut expected = std::collections::HashSet::new();
+            for b in &boxes[..n as usize] {
+                let (l, h) = grid.cell_range(b);
+                for z in l[2]..=h[2] {
+                    for y in l[1]..=h[1] {
+                        for x in l[0]..=h[0] {
+                            expected.insert((x, y, z));
+                        }
+                    }
+                }
+            }
+            assert_eq!(occupied_cells(&boxes, &ids, &grid), Some(expected.len()));
+            // Not every cell, so that a lost mark shows.
+            assert!(expected.len() < grid.cells());
+        }
     }
 }

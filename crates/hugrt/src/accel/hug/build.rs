@@ -1,7 +1,7 @@
 //! Building the hierarchy: filter → cluster → grid → insert (EG95 §2.1–2.3, SCG97 §7).
 
 use super::cluster::{Item, cluster3d, graph_components};
-use super::filter::Filter;
+use super::filter::{Filter, LengthCensus, Level};
 use crate::accel::Frame;
 use crate::accel::PrimStore;
 use crate::accel::hierarchy::{GridPlan, MAX_CELLS, Resolution, mostly_empty};
@@ -167,7 +167,29 @@ impl Planned {
 /// box is made only when some box is not finite, the lengths go once filtered, and the
 /// world's objects are the filter's own list, not a copy.
 pub fn plan(store: &PrimStore, boxes: &[Aabb], s: &Recipe) -> (Vec<GridPlan>, Report) {
-    let all_finite = boxes.par_iter().all(finite);
+    // One pass over the boxes: whether every box is finite, the union of the finite ones (the
+    // world's box) and the census of their lengths. Where the census shows every object in
+    // one level (a mesh of one size class), that level is the world's and no list of lengths
+    // is made: on the big SPD terrain, the finiteness, the lengths, the world's box and the
+    // filter had been four passes, 4.8-5.3 ms of a 46 ms build at two threads.
+    let (all_finite, world_box, census) = boxes
+        .par_chunks(1 << 14)
+        .map(|chunk| {
+            let (mut all, mut union, mut census) = (true, Aabb::EMPTY, LengthCensus::default());
+            for b in chunk {
+                if finite(b) {
+                    union = union.union(b);
+                    census.add(b.diagonal());
+                } else {
+                    all = false;
+                }
+            }
+            (all, union, census)
+        })
+        .reduce(
+            || (true, Aabb::EMPTY, LengthCensus::default()),
+            |(a, u, c), (b, v, d)| (a && b, u.union(&v), c.merge(&d)),
+        );
     let binned: Vec<u32> = if all_finite {
         Vec::new()
     } else {
@@ -183,12 +205,19 @@ pub fn plan(store: &PrimStore, boxes: &[Aabb], s: &Recipe) -> (Vec<GridPlan>, Re
     } else {
         binned.len()
     };
-    let lengths: Vec<f32> = (0..finite_count as u32)
-        .into_par_iter()
-        .map(|k| boxes[entry(k) as usize].diagonal())
-        .collect();
-    let mut levels = s.filter.apply(&lengths);
-    drop(lengths);
+    let mut levels = match s.filter.one_level(&census) {
+        Some(level) => vec![Level {
+            objects: (0..finite_count as u32).into_par_iter().collect(),
+            ..level
+        }],
+        None => {
+            let lengths: Vec<f32> = (0..finite_count as u32)
+                .into_par_iter()
+                .map(|k| boxes[entry(k) as usize].diagonal())
+                .collect();
+            s.filter.apply(&lengths)
+        }
+    };
     let mut report = Report {
         levels: levels.len(),
         ..Report::default()
@@ -202,11 +231,6 @@ pub fn plan(store: &PrimStore, boxes: &[Aabb], s: &Recipe) -> (Vec<GridPlan>, Re
             objects
         })
         .unwrap_or_default();
-    let world_box = boxes
-        .par_iter()
-        .filter(|b| finite(b))
-        .fold(|| Aabb::EMPTY, |a, b| a.union(b))
-        .reduce(|| Aabb::EMPTY, |a, b| a.union(&b));
     let mut grids = vec![Planned {
         plan: GridPlan {
             objects: world_objects,

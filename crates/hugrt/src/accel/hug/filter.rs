@@ -4,6 +4,8 @@
 //! level 0 holds the smallest objects and the last level the largest, which the world grid
 //! stores.
 
+use rayon::prelude::*;
+
 /// How object lengths are split into levels.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Filter {
@@ -22,6 +24,9 @@ pub enum Filter {
     Gap(f32),
 }
 
+/// Lengths a task of the filter's passes takes.
+const CHUNK: usize = 1 << 14;
+
 /// Octaves each side of the fraction's split over which [`gap_split`] looks for a gap.
 const GAP_WINDOW: u32 = 3;
 
@@ -32,12 +37,78 @@ const GAP_BINS: u32 = 8;
 /// Empty bins in a row that make a gap: about an octave with no object's length.
 const GAP_MIN: usize = GAP_BINS as usize;
 
-/// Where [`Filter::Gap`] splits `lengths` for a split at `t` (`fraction` of the longest): `t`
+/// Bins of [`LengthCensus`]'s histogram: every value of a non-negative float's bits from bit
+/// 20 up (its exponent and three mantissa bits), infinity included.
+const CENSUS_BINS: usize = 1 << 11;
+
+/// What the size filters need to know of the lengths, gathered as they are measured: how
+/// many, the shortest and the longest, and a histogram of their bits from bit 20 up (a
+/// positive float's bits grow with it), `gap_split`'s. From it alone a filter of two
+/// levels finds its split and whether every object falls on one side of it: on a mesh of
+/// one size class (the big SPD terrain's 524,288 triangles) the HUG's planning then makes no
+/// list of lengths and no second pass over them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LengthCensus {
+    pub count: usize,
+    /// The shortest length (infinity when there are none).
+    pub shortest: f32,
+    /// The longest length (0 when there are none).
+    pub longest: f32,
+    bins: Vec<u32>,
+}
+
+impl Default for LengthCensus {
+    fn default() -> Self {
+        LengthCensus {
+            count: 0,
+            shortest: f32::INFINITY,
+            longest: 0.0,
+            bins: vec![0; CENSUS_BINS],
+        }
+    }
+}
+
+impl LengthCensus {
+    /// Counts length `l`, a non-negative number (a box's diagonal).
+    #[inline]
+    pub fn add(&mut self, l: f32) {
+        self.count += 1;
+        self.shortest = self.shortest.min(l);
+        self.longest = self.longest.max(l);
+        self.bins[((l.to_bits() >> 20) as usize).min(CENSUS_BINS - 1)] += 1;
+    }
+
+    /// The census of both sets of lengths.
+    pub fn merge(mut self, other: &LengthCensus) -> LengthCensus {
+        self.count += other.count;
+        self.shortest = self.shortest.min(other.shortest);
+        self.longest = self.longest.max(other.longest);
+        self.bins
+            .iter_mut()
+            .zip(&other.bins)
+            .for_each(|(a, b)| *a += b);
+        self
+    }
+
+    /// The census of `lengths`, in parallel.
+    pub fn of(lengths: &[f32]) -> LengthCensus {
+        lengths
+            .par_chunks(CHUNK)
+            .map(|chunk| {
+                let mut census = LengthCensus::default();
+                chunk.iter().for_each(|&l| census.add(l));
+                census
+            })
+            .reduce(LengthCensus::default, |a, b| a.merge(&b))
+    }
+}
+
+/// Where [`Filter::Gap`] splits lengths for a split at `t` (`fraction` of the longest): `t`
 /// itself where it lies in a gap (at least [`GAP_MIN`] empty bins of the lengths' histogram
 /// in a row) or where no gap lies within [`GAP_WINDOW`] octaves above it; else the middle of
 /// the widest such gap (the nearest of equals). Every split inside a gap makes the same two
-/// levels. One pass over the lengths without a logarithm: a positive float's bits grow with
-/// it, and bits 20 and up are its exponent and three mantissa bits.
+/// levels. The histogram is the census's, read without a logarithm: bits 20 and up of a
+/// positive float are its exponent and three mantissa bits.
 ///
 /// On SPD gears (36,608 small polygons up to a tenth of the two longest, which are 170 times
 /// the shortest) 5% cuts the small ones in two, and the larger part fills the world grid;
@@ -45,20 +116,15 @@ const GAP_MIN: usize = GAP_BINS as usize;
 /// faster, balls 1.09-1.11×: `docs/measurements.md`). The split is moved up only: moved down
 /// into a gap below it, more objects went to the world grid on the generated scenes, whose
 /// builds grew (the stadium's twice as long) for little or no gain in their trace.
-fn gap_split(lengths: &[f32], t: f32) -> f32 {
+fn gap_split(census: &LengthCensus, t: f32) -> f32 {
     let lo = t / (1u32 << GAP_WINDOW) as f32;
     if !lo.is_normal() || !(t * (1u32 << GAP_WINDOW) as f32).is_finite() {
         return t;
     }
     const BINS: usize = (2 * GAP_WINDOW * GAP_BINS) as usize;
-    let base = lo.to_bits() >> 20;
-    let mut count = [0u32; BINS];
-    for &l in lengths {
-        let k = (l.to_bits() >> 20).wrapping_sub(base) as usize;
-        if k < BINS {
-            count[k] += 1;
-        }
-    }
+    let base = (lo.to_bits() >> 20) as usize;
+    // A normal `lo` with `8·t` finite: the window's bins lie below infinity's.
+    let count = &census.bins[base..base + BINS];
     // The empty runs: (first bin, length).
     let mut runs = Vec::new();
     let mut k = 0;
@@ -85,7 +151,7 @@ fn gap_split(lengths: &[f32], t: f32) -> f32 {
         .filter(|&&(s, n)| s > at && n >= GAP_MIN)
         .max_by(|a, b| a.1.cmp(&b.1).then(b.0.cmp(&a.0)))
     {
-        Some(&(s, n)) => f32::from_bits((base + (s + n / 2) as u32) << 20),
+        Some(&(s, n)) => f32::from_bits(((base + s + n / 2) as u32) << 20),
         None => t,
     }
 }
@@ -102,18 +168,45 @@ pub struct Level {
 }
 
 impl Filter {
+    /// The lengths at which the filter splits levels, from the lengths' census alone; `None`
+    /// for [`Filter::Levels`], whose splits are order statistics of the lengths themselves.
+    pub fn thresholds(&self, census: &LengthCensus) -> Option<Vec<f32>> {
+        // SCG97's split: `fraction` of the longest length.
+        let split = |fraction: f32| fraction * census.longest;
+        match *self {
+            Filter::Levels(_) => None,
+            Filter::Two(fraction) => Some(vec![split(fraction)]),
+            Filter::Gap(fraction) => Some(vec![gap_split(census, split(fraction))]),
+        }
+    }
+
+    /// The one level every length falls in, if the census shows that they all do (`objects`
+    /// left empty: every object, in order): [`Filter::apply`]'s answer then, found without
+    /// the lengths themselves.
+    pub fn one_level(&self, census: &LengthCensus) -> Option<Level> {
+        let thresholds = self.thresholds(census)?;
+        let level_of = |l: f32| thresholds.partition_point(|&f| f <= l);
+        (census.count > 0 && level_of(census.shortest) == level_of(census.longest)).then(|| Level {
+            objects: Vec::new(),
+            mean_length: (census.shortest + census.longest) * 0.5,
+        })
+    }
+
     /// Splits `lengths` into levels, smallest first. Empty levels are dropped, so the last
     /// level is never empty unless there are no objects at all.
     pub fn apply(&self, lengths: &[f32]) -> Vec<Level> {
         if lengths.is_empty() {
             return Vec::new();
         }
-        // SCG97's split: `fraction` of the longest length.
-        let split = |fraction: f32| fraction * lengths.iter().cloned().fold(0.0, f32::max);
-        let thresholds: Vec<f32> = match *self {
-            Filter::Levels(k) => {
+        let thresholds: Vec<f32> = match self.thresholds(&LengthCensus::of(lengths)) {
+            Some(thresholds) => thresholds,
+            None => {
                 // The slice boundaries are order statistics: selection finds each in linear
                 // time, each within the part of the lengths the previous one left above it.
+                let k = match *self {
+                    Filter::Levels(k) => k,
+                    _ => unreachable!("only Levels has no thresholds from the census"),
+                };
                 let mut rest = lengths.to_vec();
                 let n = rest.len();
                 let mut taken = 0;
@@ -127,38 +220,51 @@ impl Filter {
                 }
                 out
             }
-            Filter::Two(fraction) => vec![split(fraction)],
-            Filter::Gap(fraction) => vec![gap_split(lengths, split(fraction))],
         };
         let level_of = |l: f32| thresholds.partition_point(|&f| f <= l);
         // Each level's count and its shortest and longest lengths first, so that each list
         // is made at its size: grown by pushes, copied at every doubling, the lists took a
-        // fifth of the filter's time on the big SPD terrain's 524,288 triangles, all of one
-        // level, whose list is now made at once.
-        let mut census = vec![(0usize, f32::INFINITY, 0.0f32); thresholds.len() + 1];
-        for &l in lengths {
-            let (count, lo, hi) = &mut census[level_of(l)];
-            (*count, *lo, *hi) = (*count + 1, lo.min(l), hi.max(l));
-        }
-        let one_level = census.iter().any(|&(count, _, _)| count == lengths.len());
-        let mut levels: Vec<Level> = census
-            .iter()
-            .map(|&(count, lo, hi)| Level {
-                objects: if count == lengths.len() {
-                    (0..count as u32).collect()
-                } else {
-                    Vec::with_capacity(count)
-                },
-                mean_length: (lo + hi) * 0.5,
+        // fifth of the filter's time on the big SPD terrain's 524,288 triangles.
+        let empty = vec![(0usize, f32::INFINITY, 0.0f32); thresholds.len() + 1];
+        let census = lengths
+            .par_chunks(CHUNK)
+            .map(|chunk| {
+                let mut census = empty.clone();
+                for &l in chunk {
+                    let (count, lo, hi) = &mut census[level_of(l)];
+                    (*count, *lo, *hi) = (*count + 1, lo.min(l), hi.max(l));
+                }
+                census
             })
-            .collect();
-        if !one_level {
-            for (i, &l) in lengths.iter().enumerate() {
-                levels[level_of(l)].objects.push(i as u32);
-            }
-        }
-        levels.retain(|l| !l.objects.is_empty());
-        levels
+            .reduce(
+                || empty.clone(),
+                |a, b| {
+                    a.iter()
+                        .zip(&b)
+                        .map(|(&(n, lo, hi), &(m, lo2, hi2))| (n + m, lo.min(lo2), hi.max(hi2)))
+                        .collect()
+                },
+            );
+        census
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| c.0 > 0)
+            .map(|(level, &(count, lo, hi))| {
+                // In index order: an indexed parallel collect keeps it.
+                let objects: Vec<u32> = if count == lengths.len() {
+                    (0..count as u32).into_par_iter().collect()
+                } else {
+                    (0..lengths.len() as u32)
+                        .into_par_iter()
+                        .filter(|&i| level_of(lengths[i as usize]) == level)
+                        .collect()
+                };
+                Level {
+                    objects,
+                    mean_length: (lo + hi) * 0.5,
+                }
+            })
+            .collect()
     }
 }
 
@@ -234,5 +340,44 @@ mod tests {
         // Degenerate lengths: all zero, one object.
         assert_eq!(Filter::Gap(0.05).apply(&[0.0; 4]).len(), 1);
         assert_eq!(Filter::Gap(0.05).apply(&[3.0]).len(), 1);
+    }
+
+    /// The census's answer, where it gives one, is the filter's on the lengths themselves.
+    #[test]
+    fn one_level_from_the_census_is_what_apply_finds() {
+        let mesh: Vec<f32> = (0..5000).map(|i| 0.5 + (i % 97) as f32 / 194.0).collect();
+        let mut gears: Vec<f32> = (0..1000).map(|i| 0.6 + 9.3 * i as f32 / 999.0).collect();
+        gears.extend([98.0, 100.0]);
+        let even: Vec<f32> = (1..=1000).map(|i| i as f32 / 10.0).collect();
+        let cases = [
+            mesh,
+            gears,
+            even,
+            vec![1.0; 10],
+            vec![3.0],
+            vec![0.0; 4],
+            vec![],
+        ];
+        let mut found = 0;
+        for filter in [Filter::Two(0.05), Filter::Gap(0.05), Filter::Levels(3)] {
+            for lengths in &cases {
+                let levels = filter.apply(lengths);
+                match filter.one_level(&LengthCensus::of(lengths)) {
+                    Some(level) => {
+                        found += 1;
+                        assert_eq!(levels.len(), 1, "{filter:?} on {} lengths", lengths.len());
+                        assert_eq!(levels[0].mean_length, level.mean_length);
+                        assert_eq!(levels[0].objects.len(), lengths.len());
+                    }
+                    None => assert!(
+                        levels.len() != 1 || matches!(filter, Filter::Levels(_)),
+                        "{filter:?} on {} lengths: one level the census missed",
+                        lengths.len()
+                    ),
+                }
+            }
+        }
+        // The mesh, the equal lengths, the single one and the zeros, for both splits.
+        assert_eq!(found, 8);
     }
 }
