@@ -82,14 +82,8 @@ pub(crate) fn store_with_boxes<P: Primitives>(
     prims: &P,
     storage: TriangleStorage,
 ) -> Result<(PrimStore, Vec<Aabb>), SpecError> {
-    use rayon::prelude::*;
     check_size(prims.len())?;
-    let store = PrimStore::build_with(prims, storage);
-    let boxes = (0..prims.len() as u32)
-        .into_par_iter()
-        .map(|s| store.bounds(prims, s))
-        .collect();
-    Ok((store, boxes))
+    Ok(PrimStore::build_with_boxes(prims, storage))
 }
 
 /// Fails for scenes too large for 32-bit references (one bit marks sub-grids).

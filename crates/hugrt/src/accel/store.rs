@@ -242,6 +242,33 @@ impl PrimStore {
     /// its sides): an order, not a bound, so it needs no exact box. Triangles are held as
     /// `storage` says, where the primitives allow it.
     pub fn build_with<P: Primitives>(prims: &P, storage: TriangleStorage) -> PrimStore {
+        PrimStore::build_inner(prims, storage, false).0
+    }
+
+    /// [`PrimStore::build_with`], and every entry's box ([`PrimStore::bounds`]) in store
+    /// order. Copied triangles are bounded as they are copied, where a pass of its own over
+    /// the copies took 3.7 ms at two threads on the big SPD terrain (its HUG built in 34.0 ms
+    /// rather than 35.9, the bunny's in 4.23 rather than 4.56).
+    pub fn build_with_boxes<P: Primitives>(
+        prims: &P,
+        storage: TriangleStorage,
+    ) -> (PrimStore, Vec<Aabb>) {
+        let (store, boxes) = PrimStore::build_inner(prims, storage, true);
+        let boxes = boxes.unwrap_or_else(|| {
+            (0..store.len() as u32)
+                .into_par_iter()
+                .map(|s| store.bounds(prims, s))
+                .collect()
+        });
+        (store, boxes)
+    }
+
+    /// The store, and with `copied_boxes` the entries' boxes where its triangles are copies.
+    fn build_inner<P: Primitives>(
+        prims: &P,
+        storage: TriangleStorage,
+        copied_boxes: bool,
+    ) -> (PrimStore, Option<Vec<Aabb>>) {
         let n = prims.len();
         assert!(n < u32::MAX as usize, "at most 2^32-2 primitives");
         let step = (n / 4096).max(1);
@@ -307,17 +334,25 @@ impl PrimStore {
                 .map(|&k| indexed_triangle(prims, id(k), v.len()))
                 .collect::<Option<Vec<[u32; 3]>>>()
         });
-        let (tris, tri_indices, vertices) = match tri_indices {
-            Some(indices) => (Vec::new(), indices, shared),
-            None => {
-                let tris = keys[..sphere_start]
+        let triangle = |k: &u64| match prims.kind(id(*k)) {
+            PrimitiveKind::Triangle(v) => v,
+            _ => unreachable!("sorted by kind"),
+        };
+        let (tris, tri_indices, vertices, tri_boxes) = match tri_indices {
+            Some(indices) => (Vec::new(), indices, shared, None),
+            None if copied_boxes => {
+                let (tris, boxes): (Vec<[Vec3; 3]>, Vec<Aabb>) = keys[..sphere_start]
                     .par_iter()
-                    .map(|&k| match prims.kind(id(k)) {
-                        PrimitiveKind::Triangle(v) => v,
-                        _ => unreachable!("sorted by kind"),
+                    .map(|k| {
+                        let v = triangle(k);
+                        (v, Aabb::from_points(&v))
                     })
-                    .collect();
-                (tris, Vec::new(), None)
+                    .unzip();
+                (tris, Vec::new(), None, Some(boxes))
+            }
+            None => {
+                let tris = keys[..sphere_start].par_iter().map(triangle).collect();
+                (tris, Vec::new(), None, None)
             }
         };
         let spheres = keys[sphere_start..cone_start]
@@ -334,7 +369,7 @@ impl PrimStore {
                 _ => unreachable!("sorted by kind"),
             })
             .collect();
-        PrimStore {
+        let store = PrimStore {
             reach,
             tris,
             tri_indices,
@@ -345,7 +380,17 @@ impl PrimStore {
             cone_start: cone_start as u32,
             opaque_start: opaque_start as u32,
             ids: keys.par_iter().map(|&k| id(k) as u32).collect(),
-        }
+        };
+        // The other entries' boxes after the triangles'.
+        let boxes = tri_boxes.map(|mut boxes| {
+            boxes.par_extend(
+                (sphere_start as u32..n as u32)
+                    .into_par_iter()
+                    .map(|s| store.bounds(prims, s)),
+            );
+            boxes
+        });
+        (store, boxes)
     }
 
     /// An indexed store of the primitives `order` names, in that order, each an entry: for a
@@ -657,6 +702,41 @@ mod tests {
         let mixed = PrimStore::build_with(&scene, TriangleStorage::Index);
         assert_eq!(mixed.storage(), TriangleStorage::Copy);
         assert_eq!(mixed.triangle_count(), 31);
+    }
+
+    /// The boxes made beside the store are its entries' boxes, one by one: triangles bounded
+    /// as they are copied, then the spheres; or, held through indices, bounded afterwards.
+    #[test]
+    fn the_boxes_beside_the_store_are_its_entries_boxes() {
+        use crate::geometry::{Shape, Sphere};
+        use crate::scene::{Mesh, Scene};
+        let v: Vec<Vec3> = (0..40)
+            .map(|i| Vec3::new((i % 7) as f32, (i % 5) as f32 * 0.5, (i / 3) as f32))
+            .collect();
+        let t: Vec<[u32; 3]> = (0..30u32).map(|i| [i, i + 3, i + 7]).collect();
+        let mesh = Scene::from_mesh(Mesh::new(v, t).unwrap());
+        let mut mixed = mesh.clone();
+        for k in 0..5 {
+            mixed.shapes.push(Shape::Sphere(Sphere {
+                center: Vec3::splat(k as f32),
+                radius: 0.5 + k as f32,
+            }));
+            mixed
+                .shapes
+                .push(Shape::Triangle([Vec3::ZERO, Vec3::X * k as f32, Vec3::Y]));
+        }
+        for (scene, storage) in [
+            (&mesh, TriangleStorage::Copy),
+            (&mesh, TriangleStorage::Index),
+            (&mixed, TriangleStorage::Copy),
+        ] {
+            let (store, boxes) = PrimStore::build_with_boxes(scene, storage);
+            assert_eq!(store.storage(), storage);
+            assert_eq!(boxes.len(), store.len());
+            for (s, b) in boxes.iter().enumerate() {
+                assert_eq!(*b, store.bounds(scene, s as u32), "entry {s}");
+            }
+        }
     }
 
     /// The store gathers its reach in the pass that makes its keys, chunk by chunk: the
