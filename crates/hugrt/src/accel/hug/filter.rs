@@ -43,7 +43,7 @@ const CENSUS_BINS: usize = 1 << 11;
 
 /// What the size filters need to know of the lengths, gathered as they are measured: how
 /// many, the shortest and the longest, and a histogram of their bits from bit 20 up (a
-/// positive float's bits grow with it), `gap_split`'s. From it alone a filter of two
+/// positive float's bits grow with it), [`Filter::Gap`]'s. From it alone a filter of two
 /// levels finds its split and whether every object falls on one side of it: on a mesh of
 /// one size class (the big SPD terrain's 524,288 triangles) the HUG's planning then makes no
 /// list of lengths and no second pass over them.
