@@ -667,15 +667,19 @@ impl PrimStore {
 mod tests {
     use super::*;
 
-    #[test]
-    fn an_indexed_store_holds_indices_and_finds_the_same_triangles() {
-        use crate::geometry::{Shape, Sphere};
-        use crate::scene::{Mesh, Scene};
+    /// An indexed mesh of 30 triangles over 40 vertices.
+    fn small_mesh() -> crate::scene::Scene {
         let v: Vec<Vec3> = (0..40)
             .map(|i| Vec3::new((i % 7) as f32, (i % 5) as f32 * 0.5, (i / 3) as f32))
             .collect();
         let t: Vec<[u32; 3]> = (0..30u32).map(|i| [i, i + 3, i + 7]).collect();
-        let mut scene = Scene::from_mesh(Mesh::new(v, t).unwrap());
+        crate::scene::Scene::from_mesh(crate::scene::Mesh::new(v, t).unwrap())
+    }
+
+    #[test]
+    fn an_indexed_store_holds_indices_and_finds_the_same_triangles() {
+        use crate::geometry::{Shape, Sphere};
+        let mut scene = small_mesh();
         let copy = PrimStore::build_with(&scene, TriangleStorage::Copy);
         let index = PrimStore::build_with(&scene, TriangleStorage::Index);
         assert_eq!(copy.storage(), TriangleStorage::Copy);
@@ -709,12 +713,7 @@ mod tests {
     #[test]
     fn the_boxes_beside_the_store_are_its_entries_boxes() {
         use crate::geometry::{Shape, Sphere};
-        use crate::scene::{Mesh, Scene};
-        let v: Vec<Vec3> = (0..40)
-            .map(|i| Vec3::new((i % 7) as f32, (i % 5) as f32 * 0.5, (i / 3) as f32))
-            .collect();
-        let t: Vec<[u32; 3]> = (0..30u32).map(|i| [i, i + 3, i + 7]).collect();
-        let mesh = Scene::from_mesh(Mesh::new(v, t).unwrap());
+        let mesh = small_mesh();
         let mut mixed = mesh.clone();
         for k in 0..5 {
             mixed.shapes.push(Shape::Sphere(Sphere {
