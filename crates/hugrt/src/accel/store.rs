@@ -181,8 +181,9 @@ static SPREAD3: [u32; 1024] = {
     t
 };
 
-/// 30-bit Morton codes (10 bits per axis) of points inside a box, clamped to it. The three
-/// axes are scaled in one vector (each lane `((p − min) / extent).clamp(0, 1) · 1023`, the
+/// Morton codes of up to 10 bits an axis (30 in all) of points inside a box, clamped to it.
+/// The three axes are scaled in one vector (each lane `((p − min) / extent).clamp(0, 1) ·
+/// (2^bits − 1)`, the
 /// same operations on the same numbers as one axis at a time, so the same codes); an axis
 /// of no extent, or an empty box, gives 0 along it. One axis at a time, with the box's
 /// extent found again for every code, the codes took 213 instructions a primitive: the four

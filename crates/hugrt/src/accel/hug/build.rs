@@ -205,17 +205,17 @@ pub fn plan(store: &PrimStore, boxes: &[Aabb], s: &Recipe) -> (Vec<GridPlan>, Re
     } else {
         binned.len()
     };
-    let mut levels = match s.filter.one_level(&census) {
-        Some(level) => vec![Level {
+    let mut levels = match s.filter.one_level_mean(&census) {
+        Some(mean_length) => vec![Level {
             objects: (0..finite_count as u32).into_par_iter().collect(),
-            ..level
+            mean_length,
         }],
         None => {
             let lengths: Vec<f32> = (0..finite_count as u32)
                 .into_par_iter()
                 .map(|k| boxes[entry(k) as usize].diagonal())
                 .collect();
-            s.filter.apply(&lengths)
+            s.filter.apply_counted(&census, &lengths)
         }
     };
     let mut report = Report {

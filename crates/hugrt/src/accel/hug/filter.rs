@@ -180,25 +180,29 @@ impl Filter {
         }
     }
 
-    /// The one level every length falls in, if the census shows that they all do (`objects`
-    /// left empty: every object, in order): [`Filter::apply`]'s answer then, found without
-    /// the lengths themselves.
-    pub fn one_level(&self, census: &LengthCensus) -> Option<Level> {
+    /// The mean length of the one level every length falls in, if the census shows that they
+    /// all do: [`Filter::apply`] then makes one level of every object with this mean, which
+    /// is found without the lengths themselves.
+    pub fn one_level_mean(&self, census: &LengthCensus) -> Option<f32> {
         let thresholds = self.thresholds(census)?;
         let level_of = |l: f32| thresholds.partition_point(|&f| f <= l);
-        (census.count > 0 && level_of(census.shortest) == level_of(census.longest)).then(|| Level {
-            objects: Vec::new(),
-            mean_length: (census.shortest + census.longest) * 0.5,
-        })
+        (census.count > 0 && level_of(census.shortest) == level_of(census.longest))
+            .then_some((census.shortest + census.longest) * 0.5)
     }
 
     /// Splits `lengths` into levels, smallest first. Empty levels are dropped, so the last
     /// level is never empty unless there are no objects at all.
     pub fn apply(&self, lengths: &[f32]) -> Vec<Level> {
+        self.apply_counted(&LengthCensus::of(lengths), lengths)
+    }
+
+    /// [`Filter::apply`] with the lengths' census already taken: `census` is
+    /// [`LengthCensus::of`] `lengths`.
+    pub fn apply_counted(&self, census: &LengthCensus, lengths: &[f32]) -> Vec<Level> {
         if lengths.is_empty() {
             return Vec::new();
         }
-        let thresholds: Vec<f32> = match self.thresholds(&LengthCensus::of(lengths)) {
+        let thresholds: Vec<f32> = match self.thresholds(census) {
             Some(thresholds) => thresholds,
             None => {
                 // The slice boundaries are order statistics: selection finds each in linear
@@ -362,11 +366,11 @@ mod tests {
         for filter in [Filter::Two(0.05), Filter::Gap(0.05), Filter::Levels(3)] {
             for lengths in &cases {
                 let levels = filter.apply(lengths);
-                match filter.one_level(&LengthCensus::of(lengths)) {
-                    Some(level) => {
+                match filter.one_level_mean(&LengthCensus::of(lengths)) {
+                    Some(mean) => {
                         found += 1;
                         assert_eq!(levels.len(), 1, "{filter:?} on {} lengths", lengths.len());
-                        assert_eq!(levels[0].mean_length, level.mean_length);
+                        assert_eq!(levels[0].mean_length, mean);
                         assert_eq!(levels[0].objects.len(), lengths.len());
                     }
                     None => assert!(
