@@ -43,8 +43,8 @@ const MARKS_PER_ITEM: u64 = 16;
 /// (cubical cells, [`cubical_resolution`]) would hold none of `objects`' boxes (`boxes`
 /// indexed by object): the cells each box meets ([`GridHeader::cell_range`], as the binning
 /// finds them) marked in a bit table, in parallel over chunks of the objects. A chunk that
-/// would mark more than [`MARKS_PER_ITEM`] cells an item stops, and the answer is no: such
-/// boxes are no thin surface, and marking them all could take `n²`. The HUG's `world=auto`
+/// would mark more than [`MARKS_PER_ITEM`] cells for each item a chunk holds stops, and the
+/// answer is no: such boxes are no thin surface, and marking them all could take `n²`. The HUG's `world=auto`
 /// asks it ([`crate::accel::hug::WorldCells::Auto`]).
 pub(crate) fn mostly_empty(boxes: &[Aabb], objects: &[u32], bounds: &Aabb, factor: f64) -> bool {
     if objects.is_empty() || bounds.is_empty() {
@@ -68,10 +68,13 @@ fn occupied_cells(boxes: &[Aabb], objects: &[u32], grid: &GridHeader) -> Option<
     let (rx, rxy) = (res[0] as usize, res[0] as usize * res[1] as usize);
     let marked = objects
         .par_chunks(chunk)
-        .map(|chunk| {
+        .map(|part| {
             let mut bits = vec![0u64; words];
-            let mut budget = MARKS_PER_ITEM * chunk.len() as u64;
-            for &i in chunk {
+            // The budget of a whole chunk, the last one's too: the last few objects of a
+            // list in store order are the other primitives (SPD mount's four spheres after
+            // its 8192 triangles), whose few boxes would overdraw a budget of their own.
+            let mut budget = MARKS_PER_ITEM * chunk as u64;
+            for &i in part {
                 let (l, h) = grid.cell_range(&boxes[i as usize]);
                 let volume = (0..3).map(|a| (h[a] - l[a] + 1) as u64).product::<u64>();
                 budget = budget.checked_sub(volume)?;
@@ -341,5 +344,28 @@ mod tests {
             // Not every cell, so that a lost mark shows.
             assert!(expected.len() < grid.cells());
         }
+    }
+
+    /// A surface of 4096 small boxes, then four cubes of a few cells a side, as a mesh's
+    /// triangles come before a few spheres in store order: the surface leaves most cells
+    /// empty. The last chunk of the marking holds only the cubes (every chunk holds at least
+    /// 4096 objects, whatever the threads), and fails on a budget counted by its own length.
+    #[test]
+    fn a_few_large_boxes_last_do_not_overdraw_the_budget() {
+        let mut boxes: Vec<Aabb> = (0..4096)
+            .map(|k| {
+                let lo = Vec3::new((k % 64) as f32, (k / 64) as f32, 0.0) / 64.0;
+                Aabb::new(lo, lo + Vec3::new(0.01, 0.01, 0.001))
+            })
+            .collect();
+        for c in [0.1, 0.3, 0.5, 0.7] {
+            boxes.push(Aabb::new(
+                Vec3::new(c, c, 0.0),
+                Vec3::new(c + 0.2, c + 0.2, 0.2),
+            ));
+        }
+        let bounds = boxes.iter().fold(Aabb::EMPTY, |a, b| a.union(b));
+        let ids: Vec<u32> = (0..boxes.len() as u32).collect();
+        assert!(mostly_empty(&boxes, &ids, &bounds, 1.0));
     }
 }

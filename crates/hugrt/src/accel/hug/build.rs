@@ -48,7 +48,7 @@ pub enum WorldCells {
     /// (`mostly_empty`, from the objects' boxes). A scene of one size class with no cluster
     /// kept is one uniform grid, and the best density of a uniform grid depends on the scene:
     /// surfaces (the bunny, nefertiti, the big SPD terrain, teapot and tetra, the generated
-    /// terrain, SPD sombrero, teapot and tetra, which this rule finds) render as fast or
+    /// terrain, SPD mount, sombrero, teapot and tetra, which this rule finds) render as fast or
     /// faster at one cell an item and build in 0.6–0.8 of the time, while objects filling
     /// their box (SPD lattice and jacks: no cell of such a grid empty) want four or more
     /// (docs/measurements.md, "The world grid's density on scenes of one level" and "The

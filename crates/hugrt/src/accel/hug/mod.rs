@@ -93,12 +93,12 @@ use crate::geometry::Ray;
 ///   more than the papers' settings. Where the world grid holds nine tenths of the objects or
 ///   more (one size class, or a small cluster beside it) and their boxes leave more than half
 ///   of its cells empty at one cell an item (a surface: the bunny, nefertiti, the big SPD
-///   terrain, teapot and tetra, the generated terrain, SPD sombrero, teapot and tetra), it
-///   gets one cell an item (`world=auto`, [`WorldCells::Auto`]): the bunny's and the big
-///   terrain's 512² renders were 1.14 behind the best grid density by their build alone, and
-///   come to 1.06 and 1.08; nefertiti's 1.13–1.15 came to 1.08–1.11. SPD lattice and jacks,
-///   whose objects fill their box, keep 4; so does SPD mount (its triangles' boxes meet most
-///   cells).
+///   terrain, teapot and tetra, the generated terrain, SPD mount, sombrero, teapot and
+///   tetra), it gets one cell an item (`world=auto`, [`WorldCells::Auto`]): the bunny's and
+///   the big terrain's 512² renders were 1.14 behind the best grid density by their build
+///   alone, and come to 1.06 and 1.08; nefertiti's 1.13–1.15 came to 1.08–1.11; SPD mount's
+///   1.06–1.11 came to 0.96–1.00. SPD lattice and jacks, whose objects fill their box, keep
+///   4.
 /// * `prune`: large objects only (box over 16 cells or more); `prune=false` worst 1.27 (gears'
 ///   slivers), and testing every object costs build time for nothing on meshes.
 /// * `min_cluster` 16 and `loose` 0.25: `min_cluster=1` worst 1.39, `min_cluster=64` 1.43,
