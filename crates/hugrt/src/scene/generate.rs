@@ -16,12 +16,14 @@
 //! | sphereflake | 7,383 | 1.3e-3 | 1.3e-3 | 99.97 |
 //! | stadium | 18,466 | 8.1e-6 | 3.4e-6 | 99.99 |
 //! | terrain | 100,352 | 0.42 | 4.4e-3 | 0.00 |
+//! | soup | 50,000 | 8.8e-2 | 2.4e-3 | 0.30 |
 //!
 //! The kitchen's distribution is SCG97 Fig. 4's (21k polygons, min/max 9e-4, min/diag 6.5e-4,
 //! 99.3% under a fifth of the largest): thousands of small tessellated objects, cutlery a
 //! couple of millimetres thick, in a room whose floor and walls are the few long objects.
 //! The terrain is the opposite case, on purpose: one mesh of triangles of one size
-//! ([`super::Terrain`]), for measuring how builds and memory grow with the count alone.
+//! ([`super::Terrain`]), for measuring how builds and memory grow with the count alone. The
+//! soup fills a volume with triangles of one size, where the terrain is a surface.
 
 use super::{Camera, Light, Material, Scene};
 use crate::geometry::{Shape, Sphere, Vec3};
@@ -66,6 +68,11 @@ pub const KINDS: &[(&str, &str, u32)] = &[
         "terrain",
         "a fractal heightfield mesh of shared vertices, triangles of one size (the scale test); size = thousands of triangles, written to .ply a row at a time",
         100,
+    ),
+    (
+        "soup",
+        "random triangles of one size filling a cube (the random-triangle scene of the bvh literature); size = thousands of triangles",
+        50,
     ),
 ];
 
@@ -178,6 +185,7 @@ pub fn generate(kind: &str, size: u32, seed: u64) -> Option<Scene> {
         "garden" => garden(&mut b, size),
         "sphereflake" => sphereflake(&mut b, size),
         "stadium" => stadium(&mut b, size),
+        "soup" => soup(&mut b, size),
         _ => return None,
     }
     Some(b.scene)
@@ -214,6 +222,7 @@ pub fn max_size(kind: &str) -> u32 {
         "sphereflake" => 8,
         "building" => 256,
         "terrain" => 1_000_000,
+        "soup" => 100_000,
         _ => 64,
     }
 }
@@ -966,6 +975,34 @@ fn stadium(b: &mut Builder, size: u32) {
     };
     b.light(Vec3::new(5.0, 8.0, 5.0), 0.6);
     b.light(Vec3::new(-100.0, 60.0, 50.0), 0.5);
+}
+
+/// `1000·size` triangles of random shape, each within a cube a little larger than the spacing
+/// of their random centres in the unit cube: a volume filled evenly with objects of one size,
+/// the opposite of a surface.
+fn soup(b: &mut Builder, size: u32) {
+    let n = size as usize * 1000;
+    let side = 1.1 / (n as f32).cbrt();
+    b.with(CERAMIC);
+    for _ in 0..n {
+        let c = Vec3::new(b.rng.random(), b.rng.random(), b.rng.random());
+        let mut corner = || {
+            let r = Vec3::new(b.rng.random(), b.rng.random(), b.rng.random());
+            c + (r - Vec3::splat(0.5)) * side
+        };
+        let (p, q, r) = (corner(), corner(), corner());
+        b.tri(p, q, r);
+    }
+    b.scene.camera = Camera {
+        from: Vec3::new(1.8, 1.4, 2.25),
+        at: Vec3::splat(0.5),
+        up: Vec3::Y,
+        fov_deg: 40.0,
+        width: 512,
+        height: 512,
+    };
+    b.light(Vec3::new(4.0, 5.0, 3.0), 0.7);
+    b.light(Vec3::new(-3.0, 2.0, 4.0), 0.4);
 }
 
 #[cfg(test)]
