@@ -57,7 +57,7 @@ mod stats;
 mod subdivide;
 mod walk;
 
-pub(crate) use plan::{GridPlan, Resolution, Subdivision, mostly_empty};
+pub(crate) use plan::{GridPlan, Resolution, Subdivision, filled_density, mostly_empty};
 pub use plan::{Prune, cubical_resolution};
 pub use stats::{GridLevelStats, LevelView};
 

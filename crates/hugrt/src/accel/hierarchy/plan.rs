@@ -55,6 +55,64 @@ pub(crate) fn mostly_empty(boxes: &[Aabb], objects: &[u32], bounds: &Aabb, facto
     occupied_cells(boxes, objects, &grid).is_some_and(|count| 2 * count < grid.cells())
 }
 
+/// The densities, in cells an item, that [`filled_density`] chooses among.
+const FILLED_DENSITIES: [f64; 6] = [1.0, 2.0, 4.0, 8.0, 16.0, 32.0];
+
+/// The cells an item of a uniform grid over `bounds` for `objects` whose boxes fill it (where
+/// [`mostly_empty`] says no): the candidate of [`FILLED_DENSITIES`] whose estimated cost of a
+/// ray's walk per unit of length is least. `test` is the cost of testing an object, in units
+/// of the walk's step from one cell to the next.
+///
+/// A random line crosses cells of side `s` at `1.5/s` a unit of length (a cube's mean chord
+/// is `2s/3`), and meets the references of a cell in proportion to its area, `ρ` tests a cell
+/// crossed for `ρ` references a cell (box binning: the cells each box meets, counted without
+/// marking). So the cost is proportional to `∛cells·(1 + Σ test·cells met / cells)`, and the
+/// length a ray walks before its hit, a property of the scene, divides out.
+///
+/// What decides is how dear a test is: SPD lattice's cylinders and spheres, each tested on its
+/// own, render fastest at 8 to 32 cells an object, random triangles, tested eight at a time,
+/// at one (docs/measurements.md, "The world grid of objects that fill their box").
+pub(crate) fn filled_density(
+    boxes: &[Aabb],
+    objects: &[u32],
+    bounds: &Aabb,
+    test: impl Fn(u32) -> f64 + Sync,
+) -> f64 {
+    if objects.is_empty() || bounds.is_empty() {
+        return 1.0;
+    }
+    let grids = FILLED_DENSITIES.map(|d| {
+        GridHeader::over(
+            bounds,
+            cubical_resolution(bounds.extent(), objects.len() as f64 * d),
+        )
+    });
+    let met = objects
+        .par_chunks(1 << 12)
+        .map(|part| {
+            let mut met = [0.0f64; FILLED_DENSITIES.len()];
+            for &i in part {
+                let (b, w) = (&boxes[i as usize], test(i));
+                for (m, g) in met.iter_mut().zip(&grids) {
+                    let (l, h) = g.cell_range(b);
+                    *m += w * (0..3).map(|a| (h[a] - l[a] + 1) as f64).product::<f64>();
+                }
+            }
+            met
+        })
+        .reduce(
+            || [0.0; FILLED_DENSITIES.len()],
+            |a, b| std::array::from_fn(|k| a[k] + b[k]),
+        );
+    let cost = |k: usize| {
+        let cells = grids[k].cells() as f64;
+        cells.cbrt() * (1.0 + met[k] / cells)
+    };
+    (0..FILLED_DENSITIES.len())
+        .min_by(|&a, &b| cost(a).total_cmp(&cost(b)))
+        .map_or(1.0, |k| FILLED_DENSITIES[k])
+}
+
 /// How many cells of `grid` the boxes of `objects` meet, or `None` where a chunk of the
 /// objects would mark more than [`MARKS_PER_ITEM`] cells an object ([`mostly_empty`]).
 fn occupied_cells(boxes: &[Aabb], objects: &[u32], grid: &GridHeader) -> Option<usize> {
@@ -344,6 +402,30 @@ mod tests {
             // Not every cell, so that a lost mark shows.
             assert!(expected.len() < grid.cells());
         }
+    }
+
+    /// Random small boxes filling a cube (a soup of triangles, or of spheres): the walk's
+    /// steps decide where tests are cheap, the tests where they are dear.
+    #[test]
+    fn a_filled_box_is_cut_finer_where_tests_are_dear() {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let boxes: Vec<Aabb> = (0..20_000)
+            .map(|_| {
+                let lo = Vec3::new(next(), next(), next());
+                Aabb::new(lo, lo + Vec3::splat(0.03))
+            })
+            .collect();
+        let bounds = boxes.iter().fold(Aabb::EMPTY, |a, b| a.union(b));
+        let ids: Vec<u32> = (0..boxes.len() as u32).collect();
+        assert!(!mostly_empty(&boxes, &ids, &bounds, 1.0));
+        assert_eq!(filled_density(&boxes, &ids, &bounds, |_| 0.3), 1.0);
+        assert!(filled_density(&boxes, &ids, &bounds, |_| 3.0) >= 4.0);
     }
 
     /// A surface of 4096 small boxes, then four cubes of a few cells a side, as a mesh's

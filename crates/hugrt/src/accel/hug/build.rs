@@ -4,7 +4,7 @@ use super::cluster::{Item, cluster3d, graph_components};
 use super::filter::{Filter, LengthCensus, Level};
 use crate::accel::Frame;
 use crate::accel::PrimStore;
-use crate::accel::hierarchy::{GridPlan, MAX_CELLS, Resolution, mostly_empty};
+use crate::accel::hierarchy::{GridPlan, MAX_CELLS, Resolution, filled_density, mostly_empty};
 use crate::accel::sort::sort_distinct_indices;
 use crate::accel::store::finite;
 use crate::geometry::{Aabb, Vec3};
@@ -43,16 +43,18 @@ pub enum WorldCells {
     Sqrt2,
     /// `D·N` cells (the uniform grid's density rule).
     Density(f32),
-    /// hugrt's default: 4 cells an item, or one when the world grid holds nine tenths of the
-    /// objects or more and more than half of its cells would hold nothing at one cell an item
-    /// (`mostly_empty`, from the objects' boxes). A scene of one size class with no cluster
-    /// kept is one uniform grid, and the best density of a uniform grid depends on the scene:
-    /// surfaces (the bunny, nefertiti, the big SPD terrain, teapot and tetra, the generated
-    /// terrain, SPD mount, sombrero, teapot and tetra, which this rule finds) render as fast or
-    /// faster at one cell an item and build in 0.6–0.8 of the time, while objects filling
-    /// their box (SPD lattice and jacks: no cell of such a grid empty) want four or more
-    /// (docs/measurements.md, "The world grid's density on scenes of one level" and "The
-    /// packets' triangle tests, and a surface beside a small cluster").
+    /// hugrt's default: 4 cells an item, except where the world grid holds nine tenths of the
+    /// objects or more: one cell an item when more than half of its cells would hold nothing
+    /// at one cell an item (`mostly_empty`, from the objects' boxes), else the density of
+    /// `filled_density`'s estimate. A scene of one size class with no cluster kept is one
+    /// uniform grid, and the best density of a uniform grid depends on the scene: surfaces
+    /// (the bunny, nefertiti, the big SPD terrain, teapot and tetra, the generated terrain,
+    /// SPD mount, sombrero, teapot and tetra, which this rule finds) render as fast or faster
+    /// at one cell an item and build in 0.6–0.8 of the time, while for objects filling their
+    /// box what a test costs decides: random triangles want one, SPD lattice's cylinders and
+    /// spheres four or more (docs/measurements.md, "The world grid's density on scenes of one
+    /// level", "The packets' triangle tests, and a surface beside a small cluster" and "The
+    /// world grid of objects that fill their box").
     Auto,
 }
 
@@ -62,8 +64,18 @@ pub enum WorldCells {
 /// 2% of its objects, the rest in 87 cluster grids.
 const ALONE: f64 = 0.9;
 
-/// The world grid's cells an item under [`WorldCells::Auto`] where it is not mostly empty.
+/// The world grid's cells an item under [`WorldCells::Auto`] where it holds less than
+/// [`ALONE`] of the objects.
 pub const WORLD_DENSITY: f64 = 4.0;
+
+/// The cost of testing a triangle, in steps of the walk from one cell to the next, as
+/// [`filled_density`] weighs it: the cells' triangles are tested eight at a time, a step and
+/// an eighth of the eight-lane kernel each costing a few tens of instructions.
+const TRIANGLE_TEST: f64 = 0.3;
+
+/// The same for every other primitive (spheres, cylinders, cones, the scene's own), tested
+/// one at a time by its own test.
+const OTHER_TEST: f64 = 3.0;
 
 impl WorldCells {
     fn factor(self) -> f64 {
@@ -333,11 +345,20 @@ pub fn plan(store: &PrimStore, boxes: &[Aabb], s: &Recipe) -> (Vec<GridPlan>, Re
         }
     }
     let world_factor = match s.world {
-        WorldCells::Auto
-            if grids[0].plan.objects.len() as f64 >= ALONE * finite_count as f64
-                && mostly_empty(boxes, &grids[0].plan.objects, &grids[0].world, 1.0) =>
-        {
-            1.0
+        WorldCells::Auto if grids[0].plan.objects.len() as f64 >= ALONE * finite_count as f64 => {
+            let (objects, world) = (&grids[0].plan.objects, &grids[0].world);
+            if mostly_empty(boxes, objects, world, 1.0) {
+                1.0
+            } else {
+                let triangles = store.triangle_count() as u32;
+                filled_density(boxes, objects, world, |i| {
+                    if i < triangles {
+                        TRIANGLE_TEST
+                    } else {
+                        OTHER_TEST
+                    }
+                })
+            }
         }
         w => w.factor(),
     };

@@ -97,8 +97,13 @@ use crate::geometry::Ray;
 ///   tetra), it gets one cell an item (`world=auto`, [`WorldCells::Auto`]): the bunny's and
 ///   the big terrain's 512² renders were 1.14 behind the best grid density by their build
 ///   alone, and come to 1.06 and 1.08; nefertiti's 1.13–1.15 came to 1.08–1.11; SPD mount's
-///   1.06–1.11 came to 0.96–1.00. SPD lattice and jacks, whose objects fill their box, keep
-///   4.
+///   1.06–1.11 came to 0.96–1.00. Where their boxes fill the grid instead, it gets the
+///   density among 1 to 32 whose estimated cost per unit of a ray's length is least
+///   (`hierarchy::plan::filled_density`): random triangles, tested eight at a time, get 1
+///   (soups of 50,000 and 200,000 were 1.32–1.52 behind the best grid at 4, now 0.99–1.05);
+///   SPD jacks 2; SPD lattice keeps 4 (the estimate is flat from 2 to 32 there, where the
+///   renders favour 8 to 32 by up to 10%: rods aligned with the cells, whose boxes of
+///   contents cull more tests than boxes counted over the cells show).
 /// * `prune`: large objects only (box over 16 cells or more); `prune=false` worst 1.27 (gears'
 ///   slivers), and testing every object costs build time for nothing on meshes.
 /// * `min_cluster` 16 and `loose` 0.25: `min_cluster=1` worst 1.39, `min_cluster=64` 1.43,
@@ -242,7 +247,7 @@ impl Settings for HugSettings {
         key!("cluster", cluster: ClusterRule, (), "cluster3d (EG95: Isolate/Cluster3d on projections) or graph (SCG97: box-intersection components)"),
         key!("alpha", alpha: f32, 0.0..=100.0, "delta = alpha * the level's mean length; projections (cluster3d) or boxes (graph) closer than delta join (EG95: 0.01)"),
         key!("crowd", crowd: Option<usize>, (1..=1 << 30, "off"), "cluster=graph: objects sharing a binning cell with more than this many are joined untested (hugrt's), or off: every pair tested (SCG97)"),
-        key!("world", world: WorldCells, (), "cells of the world grid: auto (4 per item, 1 where it holds 90% of the objects and is mostly empty), 2n (EG95), sqrt2 (SCG97) or cells per item"),
+        key!("world", world: WorldCells, (), "cells of the world grid: auto (4 per item; where it holds 90% of the objects, 1 if they leave it mostly empty, else 1 to 32 by an estimate of a ray's cost), 2n (EG95), sqrt2 (SCG97) or cells per item"),
         key!("density", density: f32, 0.001..=1000.0, "cells per item of a cluster grid (EG95: 1)"),
         key!("cells", cells: CellShape, (), "cubical: cells as cubical as possible (hugrt's); cube-root: as many on every axis (EG95, SCG97)"),
         key!("giveback", giveback: bool, (), "true: small (min_cluster) and loose clusters go back to the enclosing grid (hugrt's); false: every cluster is gridded (the papers)"),
