@@ -44,8 +44,8 @@ const MARKS_PER_ITEM: u64 = 16;
 /// indexed by object): the cells each box meets ([`GridHeader::cell_range`], as the binning
 /// finds them) marked in a bit table, in parallel over chunks of the objects. A chunk that
 /// would mark more than [`MARKS_PER_ITEM`] cells for each item a chunk holds stops, and the
-/// answer is no: such boxes are no thin surface, and marking them all could take `n²`. The HUG's `world=auto`
-/// asks it ([`crate::accel::hug::WorldCells::Auto`]).
+/// answer is no: such boxes are no thin surface, and marking them all could take `n²`. The
+/// HUG's `world=auto` asks it ([`crate::accel::hug::WorldCells::Auto`]).
 pub(crate) fn mostly_empty(boxes: &[Aabb], objects: &[u32], bounds: &Aabb, factor: f64) -> bool {
     if objects.is_empty() || bounds.is_empty() {
         return false;
@@ -64,8 +64,8 @@ const FILLED_DENSITIES: [f64; 6] = [1.0, 2.0, 4.0, 8.0, 16.0, 32.0];
 /// of the walk's step from one cell to the next.
 ///
 /// A random line crosses cells of side `s` at `1.5/s` a unit of length (a cube's mean chord
-/// is `2s/3`), and meets the references of a cell in proportion to its area, `ρ` tests a cell
-/// crossed for `ρ` references a cell (box binning: the cells each box meets, counted without
+/// is `2s/3`), each a step and the tests of its references: `ρ` on average where the boxes
+/// meet `ρ` cells for each cell (box binning, the cells each box meets, counted without
 /// marking). So the cost is proportional to `∛cells·(1 + Σ test·cells met / cells)`, and the
 /// length a ray walks before its hit, a property of the scene, divides out.
 ///

@@ -69,8 +69,8 @@ const ALONE: f64 = 0.9;
 pub const WORLD_DENSITY: f64 = 4.0;
 
 /// The cost of testing a triangle, in steps of the walk from one cell to the next, as
-/// [`filled_density`] weighs it: the cells' triangles are tested eight at a time, a step and
-/// an eighth of the eight-lane kernel each costing a few tens of instructions.
+/// [`filled_density`] weighs it: a step costs a few tens of instructions, and the eight-lane
+/// kernel about as many for eight triangles.
 const TRIANGLE_TEST: f64 = 0.3;
 
 /// The same for every other primitive (spheres, cylinders, cones, the scene's own), tested
