@@ -361,6 +361,16 @@ mod tests {
         assert!(!mostly_empty(&pile, &[], &bounds(&pile), 4.0));
     }
 
+    /// Numbers in `[0, 1)` from a xorshift generator seeded with `state`.
+    fn uniform(mut state: u64) -> impl FnMut() -> f32 {
+        move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        }
+    }
+
     /// The marking counts the cells a brute-force count over every box's cells finds: boxes of
     /// one or two cells an axis (the rows' two bits at once, across the words' ends, the rows
     /// of 67 cells beginning anywhere in a word) and larger ones (the loops).
@@ -370,13 +380,7 @@ mod tests {
             &Aabb::new(Vec3::ZERO, Vec3::new(67.0, 5.0, 3.0)),
             [67, 5, 3],
         );
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut next = uniform(0x9e37_79b9_7f4a_7c15);
         let boxes: Vec<Aabb> = (0..300)
             .map(|k| {
                 let lo = Vec3::new(67.0 * next(), 5.0 * next(), 3.0 * next());
@@ -408,13 +412,7 @@ mod tests {
     /// steps decide where tests are cheap, the tests where they are dear.
     #[test]
     fn a_filled_box_is_cut_finer_where_tests_are_dear() {
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut next = uniform(0x2545_f491_4f6c_dd1d);
         let boxes: Vec<Aabb> = (0..20_000)
             .map(|_| {
                 let lo = Vec3::new(next(), next(), next());
