@@ -183,9 +183,8 @@ static SPREAD3: [u32; 1024] = {
 
 /// Morton codes of up to 10 bits an axis (30 in all) of points inside a box, clamped to it.
 /// The three axes are scaled in one vector (each lane `((p − min) / extent).clamp(0, 1) ·
-/// (2^bits − 1)`, the
-/// same operations on the same numbers as one axis at a time, so the same codes); an axis
-/// of no extent, or an empty box, gives 0 along it. One axis at a time, with the box's
+/// (2^bits − 1)`, the same operations on the same numbers as one axis at a time, so the same
+/// codes); an axis of no extent, or an empty box, gives 0 along it. One axis at a time, with the box's
 /// extent found again for every code, the codes took 213 instructions a primitive: the four
 /// kitchens' store took 44.8 M instructions, 31.4 M with the frame (their grid's whole build
 /// 125.5 M → 112.1 M).
