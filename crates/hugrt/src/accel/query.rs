@@ -4,7 +4,8 @@
 //! keep and how far along the ray the walk must still go. Three sinks make the three queries:
 //!
 //! * [`Closest`]: the nearest hit; the searched interval shrinks to it as hits are found.
-//! * [`AnyHit`]: the first hit found; the walk stops there.
+//! * [`AnyHit`]: the first hit found; the walk stops there, and may go from the far end of
+//!   the ray's segment back towards its start ([`HitSink::walked_back`]).
 //! * [`EveryHit`]: every hit in the ray's `[tmin, tmax]`, each primitive once, handed to a
 //!   callback that may stop the walk; the interval never shrinks.
 //!
@@ -17,8 +18,27 @@
 //! referenced by several cells or leaves, and tested again there, offers the same hit again,
 //! which [`EveryHit`] drops.
 
+use crate::geometry::{Aabb, Ray};
 use std::collections::HashSet;
 use std::ops::ControlFlow;
+
+/// Whether `ray`'s segment ends outside `bounds` (or has no end): where an occlusion query is
+/// walked from the far end of its segment ([`HitSink::walked_back`]).
+///
+/// A shadow ray leaves a surface through the cells or nodes around its origin, whose
+/// triangles it tests and misses, while what blocks it lies farther on: on the meshes, the
+/// part of the surface facing a light outside them; in a closed room, the wall between it and
+/// a light outside. Where the segment ends inside the scene (a light in the room), the
+/// blockers are the furniture near the surfaces, and the walk from the start finds them
+/// sooner. Only a matter of speed: every structure tests the same primitives for a ray either
+/// way, and an occlusion query's answer does not depend on their order (docs/measurements.md,
+/// "Occlusion walked from the far end").
+#[inline(always)]
+pub(crate) fn ends_outside(ray: &Ray, bounds: &Aabb) -> bool {
+    let end = ray.origin + ray.dir * ray.tmax;
+    // A NaN or infinite end (no end) is outside.
+    !(end.cmpge(bounds.min).all() && end.cmple(bounds.max).all())
+}
 
 /// A hit: parameter `t` along the ray and the primitive's index.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -48,6 +68,31 @@ impl Hit {
 
 /// What a query keeps of the hits a structure's walk finds.
 pub trait HitSink {
+    /// Whether the first hit offered ends the walk (occlusion): the order in which the walk
+    /// visits cells and nodes then does not change the answer, only how soon it is found.
+    const FIRST_ENDS: bool = false;
+
+    /// Whether the walk goes from the far end of the ray's segment back towards its start
+    /// ([`HitSink::walked_back`]).
+    #[inline(always)]
+    fn walks_back(&self) -> bool {
+        false
+    }
+
+    /// This sink, walked from the far end of the ray's segment back towards its start where
+    /// `far` and the first hit ends the walk ([`HitSink::FIRST_ENDS`]): what blocks a shadow
+    /// ray from a surface to a light outside the scene lies away from its origin, past the
+    /// triangles around the origin that it tests and misses. The answer is the same either
+    /// way; which primitive an occlusion query reports may differ. Other sinks ignore it.
+    #[inline(always)]
+    fn walked_back(self, far: bool) -> Self
+    where
+        Self: Sized,
+    {
+        let _ = far;
+        self
+    }
+
     /// The far end of the part of the ray still worth searching: hits beyond it change
     /// nothing, and cells or nodes that begin beyond it need not be visited.
     fn tmax(&self) -> f32;
@@ -108,12 +153,19 @@ impl HitSink for Closest {
 pub struct AnyHit {
     tmax: f32,
     hit: Option<Hit>,
+    /// Whether the walk goes from the far end ([`HitSink::walked_back`]).
+    far: bool,
 }
 
 impl AnyHit {
+    /// A ray's occlusion query, walked from the ray's start.
     #[inline]
     pub fn new(tmax: f32) -> Self {
-        AnyHit { tmax, hit: None }
+        AnyHit {
+            tmax,
+            hit: None,
+            far: false,
+        }
     }
 
     #[inline]
@@ -123,6 +175,18 @@ impl AnyHit {
 }
 
 impl HitSink for AnyHit {
+    const FIRST_ENDS: bool = true;
+
+    #[inline(always)]
+    fn walks_back(&self) -> bool {
+        self.far
+    }
+
+    #[inline(always)]
+    fn walked_back(self, far: bool) -> Self {
+        AnyHit { far, ..self }
+    }
+
     #[inline(always)]
     fn tmax(&self) -> f32 {
         self.tmax

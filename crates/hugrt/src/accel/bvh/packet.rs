@@ -212,6 +212,9 @@ impl Bvh {
         counters: &mut C,
     ) {
         let n = rays.len();
+        // Children farthest first where the first ray's sink asks for the walk from the far
+        // end, as the single walk takes them.
+        let far_first = S::FIRST_ENDS && sinks[0].walks_back();
         // Lanes past `n` repeat the last ray; they are never in a mask.
         let lane = |l: usize| &rays[l.min(n - 1)];
         let axis = |f: fn(&Ray) -> f32| -> Lanes { std::array::from_fn(|l| f(lane(l))) };
@@ -360,9 +363,16 @@ impl Bvh {
                             continue;
                         }
                         let nearest = nearest[k];
-                        // Sorted by nearest entry, farthest first, by insertion.
+                        // Sorted by nearest entry by insertion, nearest taken first (farthest
+                        // first where `far_first`).
                         let mut i = found;
-                        while i > 0 && hits[i - 1].0 < nearest {
+                        while i > 0
+                            && if S::FIRST_ENDS && far_first {
+                                hits[i - 1].0 > nearest
+                            } else {
+                                hits[i - 1].0 < nearest
+                            }
+                        {
                             hits[i] = hits[i - 1];
                             i -= 1;
                         }

@@ -255,7 +255,8 @@ pub(crate) fn walk_tree<S: HitSink, C: Counters, const VISITS: bool>(
 ) {
     // Left uninitialised: zeroing its 2 KB was 14–17% of a camera frame's time.
     let mut stack = [const { std::mem::MaybeUninit::uninit() }; STACK];
-    let mut walk = TreeWalk::new(ray, &mut stack);
+    let far_first = S::FIRST_ENDS && sink.walks_back();
+    let mut walk = TreeWalk::new(ray, far_first, &mut stack);
     while walk.step::<S, C, VISITS>(nodes, sink, counters, &mut leaf, &|_| {}) {}
 }
 
@@ -295,12 +296,13 @@ pub(crate) fn walk_tree_stream<S: HitSink, C: Counters, const VISITS: bool>(
         let leaf = leaf_address(child & ((1 << LEAF_START_BITS) - 1));
         fetch_lines(if child & LEAF != 0 { leaf } else { node });
     };
+    let far_first = |sink: &S| S::FIRST_ENDS && sink.walks_back();
     // Left uninitialised, as `walk_tree`'s.
     let mut stacks = [const { std::mem::MaybeUninit::uninit() }; 2 * STACK];
     let (stack_a, stack_b) = stacks.split_at_mut(STACK);
     let (mut a, mut b) = (
-        TreeWalk::new(&rays[0], stack_a),
-        TreeWalk::new(&rays[1], stack_b),
+        TreeWalk::new(&rays[0], far_first(&sinks[0]), stack_a),
+        TreeWalk::new(&rays[1], far_first(&sinks[1]), stack_b),
     );
     let (mut ra, mut rb) = (0, 1);
     let mut next = 2;
@@ -329,7 +331,7 @@ pub(crate) fn walk_tree_stream<S: HitSink, C: Counters, const VISITS: bool>(
                 }
                 $r = next;
                 next += 1;
-                $walk.restart(&rays[$r]);
+                $walk.restart(&rays[$r], far_first(&sinks[$r]));
             }
         };
     }
@@ -347,6 +349,8 @@ struct TreeWalk<'s> {
     near_row: [usize; 3],
     far_row: [usize; 3],
     tmin: f32,
+    /// Whether the children met are taken farthest first ([`HitSink::walks_back`]).
+    far_first: bool,
     stack: &'s mut [std::mem::MaybeUninit<(f32, u32)>],
     top: usize,
     /// The entry being opened: its entry distance and child reference. One child hit is
@@ -356,9 +360,10 @@ struct TreeWalk<'s> {
 }
 
 impl<'s> TreeWalk<'s> {
-    /// The walk's set-up for `ray`, its stack `stack` (at least [`STACK`] entries).
+    /// The walk's set-up for `ray`, children farthest first if `far_first`, its stack
+    /// `stack` (at least [`STACK`] entries).
     #[inline(always)]
-    fn new(ray: &Ray, stack: &'s mut [std::mem::MaybeUninit<(f32, u32)>]) -> Self {
+    fn new(ray: &Ray, far_first: bool, stack: &'s mut [std::mem::MaybeUninit<(f32, u32)>]) -> Self {
         // Rows of the near and far planes per axis, from the sign bit (so −0 counts as
         // negative and its infinite inverse has the right sign).
         let neg = [
@@ -383,6 +388,7 @@ impl<'s> TreeWalk<'s> {
                 2 + 3 * !neg[2] as usize,
             ],
             tmin: ray.tmin,
+            far_first,
             stack,
             top: 0,
             current: (ray.tmin, 0),
@@ -391,9 +397,9 @@ impl<'s> TreeWalk<'s> {
 
     /// The walk of `ray` from the root, on the same stack.
     #[inline(always)]
-    fn restart(&mut self, ray: &Ray) {
+    fn restart(&mut self, ray: &Ray, far_first: bool) {
         let stack = std::mem::take(&mut self.stack);
-        *self = TreeWalk::new(ray, stack);
+        *self = TreeWalk::new(ray, far_first, stack);
     }
 
     /// Opens the current entry (a node's children hit, a leaf tested, or an entry beyond the
@@ -454,7 +460,9 @@ impl<'s> TreeWalk<'s> {
                         fetch(self.current.1);
                         return true;
                     }
-                    // Several: sorted by entry distance, farthest first, by insertion.
+                    // Several: sorted by entry distance by insertion, the nearest taken first
+                    // and the others pushed farthest first; the other way round where
+                    // `far_first`.
                     let mut hits = [(0f32, 0u32); WIDTH];
                     hits[0] = (t0[k], node.children[k]);
                     let mut n = 1;
@@ -462,7 +470,13 @@ impl<'s> TreeWalk<'s> {
                         let k = mask.trailing_zeros() as usize;
                         mask &= mask - 1;
                         let mut i = n;
-                        while i > 0 && hits[i - 1].0 < t0[k] {
+                        while i > 0
+                            && if S::FIRST_ENDS && self.far_first {
+                                hits[i - 1].0 > t0[k]
+                            } else {
+                                hits[i - 1].0 < t0[k]
+                            }
+                        {
                             hits[i] = hits[i - 1];
                             i -= 1;
                         }

@@ -412,7 +412,11 @@ impl GridHierarchy {
                     .max(magnitude)
                     .max(travel)
         });
-        let forward = d0[k] > 0.0;
+        // The direction of the sweep: the rays' own, or against it where the sinks ask for the
+        // walk from the far end, as the single walk goes then
+        // ([`crate::accel::HitSink::walked_back`]).
+        let back = S::FIRST_ENDS && cull && packet.sinks[first].walks_back();
+        let forward = (d0[k] > 0.0) != back;
         let (min_u, min_v) = (h.min[u], h.min[v]);
         let (inv_u, inv_v) = (h.inv_size[u], h.inv_size[v]);
         let (top_u, top_v) = ((h.res[u] - 1) as f32, (h.res[v] - 1) as f32);

@@ -19,6 +19,7 @@ impl KdTree {
         sink: &mut S,
         counters: &mut C,
     ) {
+        let far_first = S::FIRST_ENDS && sink.walks_back();
         let pr = *pr;
         let o = ray.origin.to_array();
         let d = ray.dir.to_array();
@@ -57,6 +58,13 @@ impl KdTree {
                             node = first;
                         } else if ts < tn {
                             node = second;
+                        } else if far_first {
+                            // The far side first where the sink asks for it
+                            // ([`crate::accel::HitSink::walked_back`]).
+                            stack[top].write((first, tn, ts));
+                            top += 1;
+                            node = second;
+                            tn = ts;
                         } else {
                             stack[top].write((second, ts, tf));
                             top += 1;
@@ -78,7 +86,9 @@ impl KdTree {
                         }
                     }
                 }
-                if sink.tmax() <= tf {
+                // The nearest hit lies before the leaf's far end: nothing beyond it is nearer
+                // (a walk the first hit ends has stopped at it).
+                if !far_first && sink.tmax() <= tf {
                     break;
                 }
             }
