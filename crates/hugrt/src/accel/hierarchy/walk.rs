@@ -11,6 +11,16 @@ use crate::geometry::{PreparedRay, Vec3};
 
 /// The 3D-DDA's state along one axis: the parameter of the next cell boundary ahead and how to
 /// cross it.
+///
+/// A walk from the far end of the segment back towards its start (`BACK`,
+/// [`GridHierarchy::walk_grid`]) keeps the planes behind it the same way, each plane's
+/// parameter by the same formula but negated, so that the next plane is still the least and
+/// `first + j·delta` still counts them: the walk back is the walk ahead along the negated
+/// parameter. Along an axis where the direction's component is tiny beside the others, the
+/// ray stays within rounding of its origin's coordinate: the plane behind lies before the
+/// origin (never crossed) or, where the origin lies within rounding of a plane, may come out
+/// after the far end and be crossed first, into neighbouring cells that the margin makes hold
+/// what the ray can meet, as with the planes ahead of a walk from the start.
 #[derive(Clone, Copy)]
 struct Axis {
     /// Parameter at which the ray meets the next plane ahead.
@@ -41,7 +51,7 @@ struct Axis {
 impl Axis {
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
-    fn new(
+    fn new<const BACK: bool>(
         min: f32,
         size: f32,
         res: i32,
@@ -51,10 +61,13 @@ impl Axis {
         cell: i32,
         stride: isize,
     ) -> Axis {
+        // Towards the axis's higher cells where the walk goes with a positive component, or
+        // back against a negative one.
+        let (up, down) = ((cell + 1, 1, res - 1 - cell), (cell, -1, cell));
         let (k, step, last) = if d > 0.0 {
-            (cell + 1, 1, res - 1 - cell)
+            if BACK { down } else { up }
         } else if d < 0.0 {
-            (cell, -1, cell)
+            if BACK { up } else { down }
         } else {
             return Axis {
                 next: f32::INFINITY,
@@ -68,6 +81,7 @@ impl Axis {
             };
         };
         let first = ((min - o) + k as f32 * size) * inv;
+        let first = if BACK { -first } else { first };
         Axis {
             next: first,
             first,
@@ -91,86 +105,6 @@ impl Axis {
         self.cell += self.step;
         self.j += 1.0;
         self.next = self.first + self.j * self.delta;
-        true
-    }
-}
-
-/// The 3D-DDA's state along one axis for a walk from the far end of a segment back towards
-/// its start ([`GridHierarchy::walk_grid_back`]): the parameter of the cell boundary behind
-/// (towards the ray's origin) and how to cross it, by the same plane formula as [`Axis`].
-///
-/// Along an axis where the direction's component is tiny beside the others, the ray stays
-/// within rounding of its origin's coordinate: the plane behind lies before the origin (far
-/// below `t0`, never crossed) or, where the origin lies within rounding of a plane, may come
-/// out after the far end and be crossed first, into neighbouring cells that the margin makes
-/// hold what the ray can meet, as with [`Axis`]'s planes ahead.
-#[derive(Clone, Copy)]
-struct AxisBack {
-    /// Parameter at which the ray meets the plane behind.
-    prev: f32,
-    /// The plane `j` cells before the first plane behind is met at `first - j·delta`.
-    first: f32,
-    delta: f32,
-    j: f32,
-    last: f32,
-    jump: isize,
-    cell: i32,
-    step: i32,
-}
-
-impl AxisBack {
-    #[allow(clippy::too_many_arguments)]
-    #[inline(always)]
-    fn new(
-        min: f32,
-        size: f32,
-        res: i32,
-        o: f32,
-        d: f32,
-        inv: f32,
-        cell: i32,
-        stride: isize,
-    ) -> AxisBack {
-        let (k, step, last) = if d > 0.0 {
-            (cell, -1, cell)
-        } else if d < 0.0 {
-            (cell + 1, 1, res - 1 - cell)
-        } else {
-            return AxisBack {
-                prev: f32::NEG_INFINITY,
-                first: f32::NEG_INFINITY,
-                delta: 0.0,
-                j: 0.0,
-                last: 0.0,
-                jump: 0,
-                cell,
-                step: 0,
-            };
-        };
-        let first = ((min - o) + k as f32 * size) * inv;
-        AxisBack {
-            prev: first,
-            first,
-            delta: size * inv.abs(),
-            j: 0.0,
-            last: last as f32,
-            jump: step as isize * stride,
-            cell,
-            step,
-        }
-    }
-
-    /// Crosses the plane behind into the cell before, moving `idx`; `false` when that plane
-    /// is the grid's boundary.
-    #[inline(always)]
-    fn cross(&mut self, idx: &mut isize) -> bool {
-        if self.j == self.last {
-            return false;
-        }
-        *idx += self.jump;
-        self.cell += self.step;
-        self.j += 1.0;
-        self.prev = self.first - self.j * self.delta;
         true
     }
 }
@@ -265,15 +199,22 @@ impl GridHierarchy {
         counters: &mut C,
     ) -> bool {
         if S::FIRST_ENDS && sink.walks_back() && self.grids[g as usize].frame == NO_FRAME {
-            return self.walk_grid_back(g, prims, ray, tmin, sink, mail, counters);
+            return self.walk_cells::<P, C, S, true>(g, prims, ray, tmin, sink, mail, counters);
         }
-        self.walk_grid_ahead(g, prims, ray, tmin, sink, mail, counters)
+        self.walk_cells::<P, C, S, false>(g, prims, ray, tmin, sink, mail, counters)
     }
 
-    /// [`Self::walk_grid`] from the ray's start.
+    /// [`Self::walk_grid`] from the ray's start, or with `BACK` from the far end of its
+    /// segment in the grid back to its start, for a sink that the first hit ends and that
+    /// asks for it ([`HitSink::walked_back`]), so that what lies far from the origin is
+    /// tested first. The walk back crosses the cells the walk from the start crosses (each
+    /// plane's parameter by the same formula, each cell's objects by the same tests), in the
+    /// other order, so the margin's argument (the module documentation of [`super`]) holds as
+    /// it does there; an occlusion query's answer does not depend on the order
+    /// (docs/measurements.md, "Occlusion walked from the far end").
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
-    fn walk_grid_ahead<P: Primitives, C: Counters, S: HitSink>(
+    fn walk_cells<P: Primitives, C: Counters, S: HitSink, const BACK: bool>(
         &self,
         g: u32,
         prims: &P,
@@ -298,7 +239,9 @@ impl GridHierarchy {
         if !entered {
             return false;
         }
-        let p = o + d * t0;
+        // The walk back starts at the far end (finite: a ray with a small direction is
+        // scaled before any walk, `Reach`, so the box's far side is met at a finite `t`).
+        let p = o + d * if BACK { t1 } else { t0 };
         let res = h.res;
         let stride = [1, res[0] as isize, res[0] as isize * res[1] as isize];
         // Spelled out rather than `std::array::from_fn`, which the compiler left as calls
@@ -315,7 +258,7 @@ impl GridHierarchy {
         // Each axis's state lives in its own variables, so that a step touches registers
         // only: indexing arrays by the axis of the step costs a store and a reload.
         let axis = |a: usize| {
-            Axis::new(
+            Axis::new::<BACK>(
                 h.min[a],
                 h.size[a],
                 res[a] as i32,
@@ -349,12 +292,14 @@ impl GridHierarchy {
                 far = sink.tmax();
             }
             // The next cell is across the nearest of the three planes ahead; the walk stops
-            // when the nearest hit lies before it, or when it is the grid's boundary.
-            // (One branch per axis, rather than a reference to the chosen axis, which would
-            // put the three in memory.)
+            // when the nearest hit lies before it (the walk back: when the segment starts
+            // after it, its negated parameter below the plane's), or when it is the grid's
+            // boundary. (One branch per axis, rather than a reference to the chosen axis,
+            // which would put the three in memory.)
+            let stop = if BACK { -t0 } else { far };
             macro_rules! step {
                 ($axis:ident) => {
-                    if far <= $axis.next || !$axis.cross(&mut idx) {
+                    if stop <= $axis.next || !$axis.cross(&mut idx) {
                         break;
                     }
                 };
@@ -366,109 +311,6 @@ impl GridHierarchy {
                     step!(az)
                 }
             } else if ay.next < az.next {
-                step!(ay)
-            } else {
-                step!(az)
-            }
-        }
-        false
-    }
-
-    /// [`Self::walk_grid`] for a sink that the first hit ends and that asks for it
-    /// ([`crate::accel::HitSink::walked_back`]): the ray's segment in the grid walked from
-    /// its far end back to its start, so that what lies far from the origin is tested first.
-    /// The walk crosses the cells the walk from the start crosses (each plane's
-    /// parameter by the same formula, each cell's objects by the same tests), in the other
-    /// order, so the margin's argument (the module documentation of [`super`]) holds as it
-    /// does there; the answer does not depend on the order. Measured in docs/measurements.md,
-    /// "Occlusion walked from the far end".
-    #[allow(clippy::too_many_arguments)]
-    #[inline(always)]
-    fn walk_grid_back<P: Primitives, C: Counters, S: HitSink>(
-        &self,
-        g: u32,
-        prims: &P,
-        ray: &PreparedRay,
-        tmin: f32,
-        sink: &mut S,
-        mail: &mut Mailbox,
-        counters: &mut C,
-    ) -> bool {
-        let h = &self.grids[g as usize];
-        let level = h.level as usize;
-        counters.box_test(level);
-        let (o, d, inv) = if h.frame == NO_FRAME {
-            (ray.ray.origin, ray.ray.dir, ray.inv_dir)
-        } else {
-            let f = &self.frames[h.frame as usize];
-            let d = f.dir(ray.ray.dir);
-            (f.point(ray.ray.origin), d, Vec3::ONE / d)
-        };
-        let far = sink.tmax();
-        let (t0, t1) = h.interval(o, inv, tmin, far);
-        if t0 > t1 {
-            return false;
-        }
-        // Finite: a ray with a small direction is scaled before any walk (`Reach`), so the
-        // box's far side is met at a finite `t`.
-        let p = o + d * t1;
-        let res = h.res;
-        let stride = [1, res[0] as isize, res[0] as isize * res[1] as isize];
-        let cell = [
-            h.coord(0, p.x) as i32,
-            h.coord(1, p.y) as i32,
-            h.coord(2, p.z) as i32,
-        ];
-        let mut idx = h.first_cell as isize
-            + cell[0] as isize
-            + cell[1] as isize * stride[1]
-            + cell[2] as isize * stride[2];
-        let axis = |a: usize| {
-            AxisBack::new(
-                h.min[a],
-                h.size[a],
-                res[a] as i32,
-                o[a],
-                d[a],
-                inv[a],
-                cell[a],
-                stride[a],
-            )
-        };
-        let (mut ax, mut ay, mut az) = (axis(0), axis(1), axis(2));
-        let cull = h.frame == NO_FRAME;
-        loop {
-            counters.cell_visit(level);
-            if let Some((s, e, rank)) = self.cells.range(idx as usize) {
-                let refs = &self.refs[s..e];
-                let cell = [ax.cell, ay.cell, az.cell];
-                let objects = !cull || {
-                    let (lo, hi) = self.bounds.get(h, rank, cell, self.margin);
-                    let (t0, t1) = slab(lo, hi, o, inv, tmin, far);
-                    t0 <= t1
-                };
-                if self.test_cell::<P, C, S>(
-                    refs, prims, ray, tmin, sink, mail, counters, level, objects,
-                ) {
-                    return true;
-                }
-            }
-            // The cell before is across the farthest of the three planes behind; the walk
-            // stops when the segment starts after it, or when it is the grid's boundary.
-            macro_rules! step {
-                ($axis:ident) => {
-                    if t0 >= $axis.prev || !$axis.cross(&mut idx) {
-                        break;
-                    }
-                };
-            }
-            if ax.prev > ay.prev {
-                if ax.prev > az.prev {
-                    step!(ax)
-                } else {
-                    step!(az)
-                }
-            } else if ay.prev > az.prev {
                 step!(ay)
             } else {
                 step!(az)
