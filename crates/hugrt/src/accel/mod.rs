@@ -621,7 +621,7 @@ fn first_hits<A: Accel, P: Primitives, C: Counters, S: HitSink>(
     let avx2 = simd::available();
     let mut shadows = ShadowCache::default();
     // Occlusion rays answered so far and those blocked: where few are blocked, the walks go
-    // from the rays' start ([`query::far_end_first`]).
+    // from the rays' start ([`OFTEN`]).
     let (mut answered, mut blocked) = (0usize, 0usize);
     let mut walk = |rays: &[Ray], at: &[u32], out: &mut [Option<Hit>], counters: &mut C| {
         let often = answered < OFTEN_SEEN || blocked * OFTEN >= answered;
@@ -665,8 +665,9 @@ fn first_hits<A: Accel, P: Primitives, C: Counters, S: HitSink>(
     }
 }
 
-/// A batch of occlusion rays is walked from the rays' far ends ([`query::far_end_first`])
-/// while at least one ray in `OFTEN` of those answered is blocked, once [`OFTEN_SEEN`] are:
+/// A batch of occlusion rays is walked from the far ends of the rays' segments where they end
+/// outside the scene ([`query::ends_outside`], [`HitSink::walked_back`]) while at least one
+/// ray in `OFTEN` of those answered is blocked, once [`OFTEN_SEEN`] are:
 /// where almost every ray reaches its light (the generated city's shadow rays, 1.5% blocked;
 /// the stadium's, 0.25%), the walks from the far end cost 5-10% more than from the start
 /// (the same cells, tests and instructions within 1%, in another order), and they pay only

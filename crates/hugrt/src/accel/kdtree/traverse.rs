@@ -86,8 +86,9 @@ impl KdTree {
                         }
                     }
                 }
-                // The nearest hit lies before the leaf's far end: nothing beyond it is nearer
-                // (a walk the first hit ends has stopped at it).
+                // The nearest hit lies before the leaf's far end: nothing beyond it is nearer.
+                // (Walked from the far end, the leaves beyond came first, and a hit has ended
+                // the walk.)
                 if !far_first && sink.tmax() <= tf {
                     break;
                 }
