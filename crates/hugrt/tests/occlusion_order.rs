@@ -3,8 +3,8 @@
 //! finds a blocker far from the origin sooner.
 
 use hugrt::accel::{
-    Accel, AdaptiveGrid, AnyHit, Bvh, Grid, HitSink, Hug, KdTree, LevelCounts, Octree, PIT,
-    Primitives, RayCounters, RecursiveGrid, Spec, VT,
+    Accel, AdaptiveGrid, AnyAccel, AnyHit, Bvh, Grid, HitSink, Hug, KdTree, LevelCounts, Octree,
+    PIT, Packets, Primitives, RayCounters, RecursiveGrid, Spec, VT,
 };
 use hugrt::geometry::{Ray, Vec3};
 use hugrt::scene::Scene;
@@ -114,4 +114,81 @@ fn occlusion_from_the_far_end_crosses_the_same_cells_and_meets_the_blocker_first
     check::<AdaptiveGrid>("agrid");
     check::<Bvh>("bvh");
     check::<KdTree>("kdtree");
+}
+
+/// The tests and cells of the shadow rays of [`tubes_and_roof`] through `accel`: asked one at
+/// a time ([`Accel::any_hit`]), as a batch ([`Accel::any_hits`], every ray alone), and walked
+/// from the start and from the far end by hand.
+fn walks<A: Accel>(accel: &A, scene: &Scene) -> [(u64, u64); 4] {
+    let light = Vec3::new(4.3, 40.0, 4.1);
+    let rays: Vec<Ray> = origins()
+        .map(|o| Ray::new(o, light - o, 1e-4, 1.0))
+        .collect();
+    let counts = |c: &LevelCounts| (c[PIT], c[VT]);
+    let mut one = RayCounters::default();
+    for ray in &rays {
+        accel.any_hit(scene, ray, &mut one);
+    }
+    let mut batch = RayCounters::default();
+    let mut out = vec![None; rays.len()];
+    accel.any_hits(scene, &rays, Packets::Off, &mut out, &mut batch);
+    let by_hand = |far: bool| {
+        rays.iter()
+            .map(|r| occlusion(accel, scene, r, far).1)
+            .fold((0, 0), |(p, v), c| (p + c[PIT], v + c[VT]))
+    };
+    [
+        counts(&one.total()),
+        counts(&batch.total()),
+        by_hand(false),
+        by_hand(true),
+    ]
+}
+
+fn check_setting<A: Accel>(name: &str) {
+    let scene = tubes_and_roof();
+    let ours = A::build(&scene, &Spec::parse(name).unwrap()).unwrap();
+    let [one, batch, start, far] = walks(&ours, &scene);
+    assert!(start != far, "{name}: the two walks differ here");
+    assert_eq!((one, batch), (far, far), "{name}: walked from the far end");
+    let papers = format!("{name}:occlusion=start");
+    let theirs = A::build(&scene, &Spec::parse(&papers).unwrap()).unwrap();
+    let [one, batch, start, _] = walks(&theirs, &scene);
+    assert_eq!(
+        (one, batch),
+        (start, start),
+        "{papers}: walked from the start"
+    );
+}
+
+/// The `occlusion` key: hugrt's default walks occlusion queries from the far end of a segment
+/// that leaves the scene, `start` (the papers' presets) from the origin, one ray at a time and
+/// in batches, so that the presets' counters are counted as the papers counted theirs.
+#[test]
+fn the_occlusion_key_chooses_the_end_an_occlusion_query_starts_from() {
+    check_setting::<Hug>("hug");
+    check_setting::<Grid>("grid");
+    check_setting::<RecursiveGrid>("rgrid");
+    check_setting::<Octree>("octree");
+    check_setting::<AdaptiveGrid>("agrid");
+    check_setting::<Bvh>("bvh");
+    check_setting::<KdTree>("kdtree");
+    for paper in [
+        "hug:preset=eg95",
+        "hug:preset=scg97",
+        "rgrid:preset=eg95",
+        "octree:preset=eg95",
+        "kdtree:preset=havran",
+    ] {
+        let keys = AnyAccel::resolve(paper).unwrap();
+        assert!(
+            keys.contains(&("occlusion", "start".to_string())),
+            "{paper}: {keys:?}"
+        );
+    }
+    let keys = AnyAccel::resolve("hug").unwrap();
+    assert!(
+        keys.contains(&("occlusion", "auto".to_string())),
+        "{keys:?}"
+    );
 }

@@ -42,6 +42,7 @@
 use super::bvh::BoxTree;
 use super::grid::{PRUNE_HELP, SIMD_HELP, store_with_boxes};
 use super::hierarchy::{GridHierarchy, GridPlan, LevelView, Prune, Resolution, Subdivision};
+use super::query::{OCCLUSION_HELP, Occlusion};
 use super::settings::{Key, Settings, key};
 use super::simd::Simd;
 use super::store::{TriangleStorage, finite};
@@ -67,6 +68,8 @@ pub struct AdaptiveSettings {
     pub prune: Prune,
     /// Which vector instructions the walks and the triangle tests may use ([`Simd`]).
     pub simd: Simd,
+    /// Where occlusion queries walk a ray from ([`Occlusion`]).
+    pub occlusion: Occlusion,
 }
 
 impl Settings for AdaptiveSettings {
@@ -79,6 +82,7 @@ impl Settings for AdaptiveSettings {
         key!("depth", depth: usize, 0..=15, "levels of sub-voxel grids below the clusters' grids"),
         key!("prune", prune: Prune, (), PRUNE_HELP),
         key!("simd", simd: Simd, (), SIMD_HELP),
+        key!("occlusion", occlusion: Occlusion, (), OCCLUSION_HELP),
     ];
 }
 
@@ -93,6 +97,7 @@ impl Default for AdaptiveSettings {
             depth: 1,
             prune: Prune::None,
             simd: Simd::Widest,
+            occlusion: Occlusion::Auto,
         }
     }
 }
@@ -237,6 +242,10 @@ impl Accel for AdaptiveGrid {
 
     fn reach(&self) -> &crate::accel::Reach {
         self.grids.store.reach()
+    }
+
+    fn occlusion(&self) -> Occlusion {
+        self.settings.occlusion
     }
 
     fn memory_bytes(&self) -> usize {

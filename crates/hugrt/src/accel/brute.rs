@@ -51,6 +51,12 @@ impl Accel for Brute {
         &self.reach
     }
 
+    /// Brute force tests every primitive in the order of the scene, whichever end it is
+    /// asked to start from.
+    fn occlusion(&self) -> crate::accel::Occlusion {
+        crate::accel::Occlusion::Start
+    }
+
     fn memory_bytes(&self) -> usize {
         std::mem::size_of::<Self>()
     }

@@ -11,6 +11,7 @@
 //!   once it lies inside the current cell (see [`GridHierarchy::walk`]).
 
 use super::hierarchy::{GridHierarchy, GridPlan, LevelView, Prune, Resolution};
+use super::query::{OCCLUSION_HELP, Occlusion};
 use super::settings::{Key, Settings, key};
 use super::simd::Simd;
 use super::store::{STORAGE_HELP, TriangleStorage};
@@ -40,6 +41,8 @@ pub struct GridSettings {
     pub simd: Simd,
     /// How the store holds an indexed mesh's triangles.
     pub store: TriangleStorage,
+    /// Where occlusion queries walk a ray from ([`Occlusion`]).
+    pub occlusion: Occlusion,
 }
 
 impl Default for GridSettings {
@@ -50,6 +53,7 @@ impl Default for GridSettings {
             shift: true,
             simd: Simd::Widest,
             store: TriangleStorage::Auto,
+            occlusion: Occlusion::Auto,
         }
     }
 }
@@ -66,6 +70,7 @@ impl Settings for GridSettings {
         key!("shift", shift: bool, (), SHIFT_HELP),
         key!("simd", simd: Simd, (), SIMD_HELP),
         key!("store", store: TriangleStorage, (), STORAGE_HELP),
+        key!("occlusion", occlusion: Occlusion, (), OCCLUSION_HELP),
     ];
 }
 
@@ -74,6 +79,7 @@ pub struct Grid {
     prims: usize,
     density: f32,
     prune: Prune,
+    occlusion: Occlusion,
 }
 
 /// The store of `prims` and the box of each of its entries, for the builds that plan from
@@ -110,6 +116,7 @@ impl Accel for Grid {
             shift,
             simd,
             store,
+            occlusion,
         } = *settings;
         let n = prims.len();
         check_size(n)?;
@@ -130,6 +137,7 @@ impl Accel for Grid {
             prims: n,
             density,
             prune,
+            occlusion,
         })
     }
 
@@ -155,6 +163,10 @@ impl Accel for Grid {
 
     fn reach(&self) -> &crate::accel::Reach {
         self.grids.store.reach()
+    }
+
+    fn occlusion(&self) -> Occlusion {
+        self.occlusion
     }
 
     fn memory_bytes(&self) -> usize {

@@ -51,7 +51,7 @@ pub use kdtree::{KdTree, KdTreeSettings, Layout as KdTreeLayout, SplitRule as Kd
 pub use mailbox::Mailbox;
 pub use octree::{Octree, OctreeSettings};
 pub use packet::{MAX_PACKET, PACKET, Packets};
-pub use query::{AnyHit, Closest, EveryHit, Hit, HitSink};
+pub use query::{AnyHit, Closest, EveryHit, Hit, HitSink, Occlusion};
 pub use reach::Reach;
 use reach::Route;
 pub use rgrid::{RecursiveGrid, RecursiveGridSettings};
@@ -359,6 +359,9 @@ pub trait Accel: Sized + Send + Sync {
     /// Where the primitives lie: far rays are moved to them before the walk ([`Reach`]).
     fn reach(&self) -> &Reach;
 
+    /// Where its occlusion queries walk a ray's segment from: its settings' `occlusion` key.
+    fn occlusion(&self) -> Occlusion;
+
     /// The nearest hit in the ray's `[tmin, tmax]`; none for a ray that is not traceable.
     #[inline]
     fn closest_hit<P: Primitives, C: Counters>(
@@ -410,7 +413,8 @@ pub trait Accel: Sized + Send + Sync {
     /// Some hit in the ray's `[tmin, tmax]`, if there is any; none for a ray that is not
     /// traceable. Where the ray's segment ends outside the scene's box (a shadow ray to a
     /// light outside it, or a ray without end), it is walked from that end back towards its
-    /// start ([`HitSink::walked_back`]).
+    /// start ([`HitSink::walked_back`]), unless the structure's settings say
+    /// [`Occlusion::Start`].
     #[inline]
     fn any_hit<P: Primitives, C: Counters>(
         &self,
@@ -426,7 +430,8 @@ pub trait Accel: Sized + Send + Sync {
             Route::AsGiven => {}
         }
         let ray = &ray.without_subnormal_direction();
-        let far = query::ends_outside(ray, self.reach().bounds());
+        let far =
+            self.occlusion() == Occlusion::Auto && query::ends_outside(ray, self.reach().bounds());
         let mut sink = AnyHit::new(ray.tmax).walked_back(far);
         self.query(prims, ray, &mut sink, counters);
         sink.hit()
@@ -468,7 +473,8 @@ pub trait Accel: Sized + Send + Sync {
     /// of Haines and Greenberg, `accel::shadow_cache`), so the hit reported may differ from
     /// [`Accel::any_hit`]'s. A group is walked from its rays' far ends as [`Accel::any_hit`]
     /// walks its first ray, while at least one in 16 of the rays answered before it is blocked
-    /// (where almost none is, walks from the start measured 5-10% faster).
+    /// (where almost none is, walks from the start measured 5-10% faster); every group from
+    /// its rays' start under [`Occlusion::Start`].
     ///
     /// # Panics
     /// When `out` and `rays` differ in length.
@@ -735,6 +741,7 @@ fn first_hits_of_group<A: Accel, P: Primitives, C: Counters, S: HitSink>(
     // the first ray's segment ends outside the scene (a light outside it: `ends_outside`).
     let far = S::FIRST_ENDS
         && blocked_often
+        && accel.occlusion() == Occlusion::Auto
         && n > 0
         && query::ends_outside(&walked[0], accel.reach().bounds());
     // The cached blocker, if it blocks the group's first ray, is tried on the others: the

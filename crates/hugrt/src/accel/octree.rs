@@ -15,6 +15,7 @@
 use super::Preset;
 use super::grid::{PRUNE_HELP, SIMD_HELP};
 use super::hierarchy::{Prune, Resolution, Subdivision};
+use super::query::{OCCLUSION_HELP, Occlusion};
 use super::rgrid::{CutGrids, GUARD_HELP, MAX_DEPTH};
 use super::settings::{Key, Settings, key};
 use super::simd::Simd;
@@ -41,6 +42,11 @@ pub const EG95: Preset = Preset {
             "EG95 §1.2.2: cells are cut by MAXP and depth only",
         ),
         ("prune", "false", "EG95 bins objects by their boxes"),
+        (
+            "occlusion",
+            "start",
+            "EG95 §2.3.2: every ray is walked from its origin",
+        ),
     ],
 };
 
@@ -56,6 +62,8 @@ pub struct OctreeSettings {
     pub prune: Prune,
     /// Which vector instructions the walks and the triangle tests may use ([`Simd`]).
     pub simd: Simd,
+    /// Where occlusion queries walk a ray from ([`Occlusion`]).
+    pub occlusion: Occlusion,
 }
 
 impl Default for OctreeSettings {
@@ -66,6 +74,7 @@ impl Default for OctreeSettings {
             guard: false,
             prune: Prune::None,
             simd: Simd::Widest,
+            occlusion: Occlusion::Auto,
         }
     }
 }
@@ -77,12 +86,14 @@ impl Settings for OctreeSettings {
         key!("guard", guard: bool, (), GUARD_HELP),
         key!("prune", prune: Prune, (), PRUNE_HELP),
         key!("simd", simd: Simd, (), SIMD_HELP),
+        key!("occlusion", occlusion: Occlusion, (), OCCLUSION_HELP),
     ];
     const PRESETS: &'static [Preset] = &[EG95];
 }
 
 pub struct Octree {
     cut: CutGrids,
+    occlusion: Occlusion,
 }
 
 impl Accel for Octree {
@@ -103,6 +114,7 @@ impl Accel for Octree {
         Ok(Octree {
             // A 2×2×2 grid never shifts its planes (axes of fewer than 4 cells).
             cut: CutGrids::build(prims, sub, settings.prune, false, settings.simd)?,
+            occlusion: settings.occlusion,
         })
     }
 
@@ -128,6 +140,10 @@ impl Accel for Octree {
 
     fn reach(&self) -> &crate::accel::Reach {
         self.cut.grids.store.reach()
+    }
+
+    fn occlusion(&self) -> Occlusion {
+        self.occlusion
     }
 
     fn memory_bytes(&self) -> usize {

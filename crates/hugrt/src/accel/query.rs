@@ -40,6 +40,28 @@ pub(crate) fn ends_outside(ray: &Ray, bounds: &Aabb) -> bool {
     !(end.cmpge(bounds.min).all() && end.cmple(bounds.max).all())
 }
 
+/// Where an occlusion query ([`super::Accel::any_hit`], [`super::Accel::any_hits`]) walks a
+/// ray's segment from: every structure's `occlusion` key. Only a matter of speed and of the
+/// counters: the answers are the same either way.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Occlusion {
+    /// hugrt's: from the far end of the segment where it ends outside the scene (a light
+    /// outside it, or no end) and, in a batch, while blocked rays are not rare; else from the
+    /// start (docs/measurements.md, "Occlusion walked from the far end").
+    #[default]
+    Auto,
+    /// From the ray's start, as the papers walk every ray (EG95 §2.3.2 "visit the next voxel
+    /// along the ray path", which SCG97 §1.3 builds on; Havran §4.2.2, Sung and Shirley's
+    /// walk): their presets' order, so that the counters (tests and cells a ray) are counted
+    /// as theirs were.
+    Start,
+}
+
+crate::accel::settings::choice_value!(Occlusion { Occlusion::Auto => "auto", Occlusion::Start => "start" });
+
+/// The `occlusion` key's help, the same for every structure.
+pub(crate) const OCCLUSION_HELP: &str = "where an occlusion (any-hit) query walks a ray from: auto (hugrt's) from the far end of a segment that ends outside the scene, start from its origin (the papers)";
+
 /// A hit: parameter `t` along the ray and the primitive's index.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Hit {

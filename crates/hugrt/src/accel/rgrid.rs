@@ -29,6 +29,7 @@
 
 use super::grid::{PRUNE_HELP, SHIFT_HELP, SIMD_HELP, check_size};
 use super::hierarchy::{GridHierarchy, GridPlan, LevelView, Prune, Resolution, Subdivision};
+use super::query::{OCCLUSION_HELP, Occlusion};
 use super::settings::{Key, Settings, key};
 use super::simd::Simd;
 use super::{
@@ -106,6 +107,7 @@ pub struct RecursiveGrid {
     cut: CutGrids,
     density: f32,
     hetero: bool,
+    occlusion: Occlusion,
 }
 
 /// The deepest level (the root is 0) [`RecursiveGrid`] and [`super::Octree`] accept.
@@ -134,6 +136,8 @@ pub struct RecursiveGridSettings {
     pub shift: bool,
     /// Which vector instructions the walks and the triangle tests may use ([`Simd`]).
     pub simd: Simd,
+    /// Where occlusion queries walk a ray from ([`Occlusion`]).
+    pub occlusion: Occlusion,
 }
 
 impl Default for RecursiveGridSettings {
@@ -147,6 +151,7 @@ impl Default for RecursiveGridSettings {
             prune: Prune::None,
             shift: true,
             simd: Simd::Widest,
+            occlusion: Occlusion::Auto,
         }
     }
 }
@@ -161,6 +166,7 @@ impl Settings for RecursiveGridSettings {
         key!("prune", prune: Prune, (), PRUNE_HELP),
         key!("shift", shift: bool, (), SHIFT_HELP),
         key!("simd", simd: Simd, (), SIMD_HELP),
+        key!("occlusion", occlusion: Occlusion, (), OCCLUSION_HELP),
     ];
     const PRESETS: &'static [Preset] = &[EG95];
 }
@@ -196,6 +202,11 @@ pub const EG95: Preset = Preset {
         ),
         ("shift", "false", "the papers' grids start at their box"),
         ("prune", "false", "EG95 bins objects by their boxes"),
+        (
+            "occlusion",
+            "start",
+            "EG95 §2.3.2: every ray is walked from its origin",
+        ),
     ],
 };
 
@@ -219,6 +230,7 @@ impl Accel for RecursiveGrid {
             prune,
             shift,
             simd,
+            occlusion,
         } = *settings;
         let sub = Subdivision {
             maxp,
@@ -234,6 +246,7 @@ impl Accel for RecursiveGrid {
             cut: CutGrids::build(prims, sub, prune, shift, simd)?,
             density,
             hetero,
+            occlusion,
         })
     }
 
@@ -259,6 +272,10 @@ impl Accel for RecursiveGrid {
 
     fn reach(&self) -> &crate::accel::Reach {
         self.cut.grids.store.reach()
+    }
+
+    fn occlusion(&self) -> Occlusion {
+        self.occlusion
     }
 
     fn memory_bytes(&self) -> usize {

@@ -54,6 +54,7 @@ use flatten::{Flattened, Part, flatten};
 
 use super::block::{self, Block, LANES};
 use super::margin::margin_for;
+use super::query::{OCCLUSION_HELP, Occlusion};
 use super::settings::{Key, Settings, key};
 use super::store::{INDEX_FROM, PrimStore, STORAGE_HELP, TriangleStorage, finite, indexed_mesh};
 use super::{Accel, CellCensus, Counters, HitSink, Primitives, SpecError, StructureStats};
@@ -125,6 +126,9 @@ pub struct BvhSettings {
     pub store: TriangleStorage,
     /// Indexed leaves' triangles tested eight at a time where AVX2 is present.
     pub simd: bool,
+    /// Where occlusion queries walk a ray from ([`Occlusion`]): from the far end, the
+    /// children met are taken farthest first.
+    pub occlusion: Occlusion,
 }
 
 impl Default for BvhSettings {
@@ -136,6 +140,7 @@ impl Default for BvhSettings {
             spatial: 0.0,
             store: TriangleStorage::Auto,
             simd: true,
+            occlusion: Occlusion::Auto,
         }
     }
 }
@@ -148,6 +153,7 @@ impl Settings for BvhSettings {
         key!("spatial", spatial: f32, 0.0..=4.0, "spatial splits (SBVH): extra references allowed, as a fraction of the primitives (0: none)"),
         key!("store", store: TriangleStorage, (), STORAGE_HELP),
         key!("simd", simd: bool, (), "false: test an indexed leaf's triangles one at a time even where AVX2 is present (store=index)"),
+        key!("occlusion", occlusion: Occlusion, (), OCCLUSION_HELP),
     ];
 }
 
@@ -174,6 +180,7 @@ pub struct Bvh {
     leaf_size: usize,
     bins: usize,
     spatial: f32,
+    occlusion: Occlusion,
     stats: TreeStats,
 }
 
@@ -279,6 +286,7 @@ impl Bvh {
             leaf_size: settings.leaf,
             bins: settings.bins,
             spatial: settings.spatial,
+            occlusion: settings.occlusion,
             stats,
         })
     }
@@ -298,6 +306,7 @@ impl Accel for Bvh {
             spatial,
             store: triangles,
             simd,
+            occlusion,
         } = *settings;
         let n = prims.len();
         let budget = (spatial as f64 * n as f64) as usize;
@@ -430,6 +439,7 @@ impl Accel for Bvh {
             leaf_size,
             bins,
             spatial,
+            occlusion,
             stats,
         };
         // The blocks hold the triangles now; the store keeps the other kinds.
@@ -469,6 +479,10 @@ impl Accel for Bvh {
 
     fn reach(&self) -> &crate::accel::Reach {
         self.store.reach()
+    }
+
+    fn occlusion(&self) -> Occlusion {
+        self.occlusion
     }
 
     fn memory_bytes(&self) -> usize {

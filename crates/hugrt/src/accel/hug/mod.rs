@@ -48,6 +48,7 @@ pub use filter::Filter;
 use super::Prune;
 use super::grid::{PRUNE_HELP, SHIFT_HELP, SIMD_HELP, store_with_boxes};
 use super::hierarchy::{GridHierarchy, LevelView};
+use super::query::{OCCLUSION_HELP, Occlusion};
 use super::settings::{Key, Settings, key};
 use super::simd::Simd;
 use super::store::{STORAGE_HELP, TriangleStorage};
@@ -131,6 +132,7 @@ pub const DEFAULTS: HugSettings = HugSettings {
     shift: true,
     simd: Simd::Widest,
     store: TriangleStorage::Auto,
+    occlusion: Occlusion::Auto,
 };
 
 /// How objects are filtered by size (step 1).
@@ -231,6 +233,8 @@ pub struct HugSettings {
     pub simd: Simd,
     /// How the store holds an indexed mesh's triangles.
     pub store: TriangleStorage,
+    /// Where occlusion queries walk a ray from ([`Occlusion`]).
+    pub occlusion: Occlusion,
 }
 
 impl Default for HugSettings {
@@ -260,6 +264,7 @@ impl Settings for HugSettings {
         key!("shift", shift: bool, (), SHIFT_HELP),
         key!("simd", simd: Simd, (), SIMD_HELP),
         key!("store", store: TriangleStorage, (), STORAGE_HELP),
+        key!("occlusion", occlusion: Occlusion, (), OCCLUSION_HELP),
     ];
     const PRESETS: &'static [Preset] = &[EG95, SCG97];
 }
@@ -346,6 +351,11 @@ pub const EG95: Preset = Preset {
         ),
         ("pca", "false", "EG95: axis-aligned boxes"),
         ("hetero", "false", "EG95: the cube-root criterion"),
+        (
+            "occlusion",
+            "start",
+            "EG95 §2.3.2: every ray is walked from its origin",
+        ),
     ],
 };
 
@@ -411,6 +421,11 @@ pub const SCG97: Preset = Preset {
             "hetero",
             "false",
             "SCG97 §7.3: no heterogeneous gridding paid",
+        ),
+        (
+            "occlusion",
+            "start",
+            "SCG97 §1.3 walks as EG95 §2.3.2: every ray from its origin",
         ),
     ],
 };
@@ -486,6 +501,10 @@ impl Accel for Hug {
 
     fn reach(&self) -> &crate::accel::Reach {
         self.grids.store.reach()
+    }
+
+    fn occlusion(&self) -> Occlusion {
+        self.settings.occlusion
     }
 
     fn memory_bytes(&self) -> usize {

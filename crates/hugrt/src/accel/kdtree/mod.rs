@@ -55,6 +55,7 @@ mod traverse;
 use build::Builder;
 
 use super::margin::margin_for;
+use super::query::{OCCLUSION_HELP, Occlusion};
 use super::settings::{Key, Settings, key};
 use super::store::{PrimStore, finite};
 use super::{Accel, CellCensus, Counters, HitSink, Preset, Primitives, SpecError, StructureStats};
@@ -101,6 +102,9 @@ pub struct KdTreeSettings {
     pub cut: bool,
     /// The nodes in memory (Havran §4.3).
     pub layout: Layout,
+    /// Where occlusion queries walk a ray from ([`Occlusion`]): from the far end, the child
+    /// met last is taken first.
+    pub occlusion: Occlusion,
 }
 
 impl Default for KdTreeSettings {
@@ -114,6 +118,7 @@ impl Default for KdTreeSettings {
             bonus: EMPTY_BONUS,
             cut: false,
             layout: Layout::DepthFirst,
+            occlusion: Occlusion::Auto,
         }
     }
 }
@@ -128,6 +133,7 @@ impl Settings for KdTreeSettings {
         key!("bonus", bonus: f32, 0.0..=1.0, "sah: factor on the object terms of a plane leaving a side empty (hugrt's; 1 is eq. 3)"),
         key!("cut", cut: bool, (), "sah: true costs planes leaving a side empty by eq. 7 at every node and considers nodes of one object too (Havran 4.2.2)"),
         key!("layout", layout: Layout, (), "nodes in memory (Havran 4.3): depth-first, breadth-first, scattered (nodes at random), subtrees (ordinary, in 64-byte lines), compact (pointer-free subtrees of 7 nodes a line)"),
+        key!("occlusion", occlusion: Occlusion, (), OCCLUSION_HELP),
     ];
     const PRESETS: &'static [Preset] = &[HAVRAN];
 }
@@ -144,6 +150,7 @@ pub struct KdTree {
     store: PrimStore,
     bounds: Aabb,
     rule: SplitRule,
+    occlusion: Occlusion,
     stats: TreeStats,
 }
 
@@ -193,6 +200,11 @@ pub const HAVRAN: Preset = Preset {
             "depth-first",
             "Havran §4.3.2: the DFS representation, his usual one",
         ),
+        (
+            "occlusion",
+            "start",
+            "Havran §4.2.2: the walk of Sung and Shirley, from the root along the ray",
+        ),
     ],
 };
 
@@ -213,6 +225,7 @@ impl Accel for KdTree {
             bonus: empty_bonus,
             cut,
             layout,
+            occlusion,
         } = *settings;
         let n = prims.len();
         let default_depth = match rule {
@@ -263,6 +276,7 @@ impl Accel for KdTree {
             store,
             bounds,
             rule,
+            occlusion,
             stats: TreeStats::default(),
         };
         let mut logical = Vec::new();
@@ -305,6 +319,10 @@ impl Accel for KdTree {
 
     fn reach(&self) -> &crate::accel::Reach {
         self.store.reach()
+    }
+
+    fn occlusion(&self) -> Occlusion {
+        self.occlusion
     }
 
     fn memory_bytes(&self) -> usize {
