@@ -330,3 +330,64 @@ fn every_preset_sets_keys_its_structure_has() {
         );
     }
 }
+
+/// 2,000 small objects filling a cube, all spheres or all triangles, over a floor of two large
+/// triangles: one cluster whose grid holds what it is made of.
+fn cube_over_floor(spheres: bool) -> Scene {
+    let mut r = rng(5);
+    let mut shapes = vec![
+        Shape::Triangle([
+            Vec3::new(-50.0, -1.0, -50.0),
+            Vec3::new(50.0, -1.0, -50.0),
+            Vec3::new(-50.0, -1.0, 50.0),
+        ]),
+        Shape::Triangle([
+            Vec3::new(50.0, -1.0, 50.0),
+            Vec3::new(-50.0, -1.0, 50.0),
+            Vec3::new(50.0, -1.0, -50.0),
+        ]),
+    ];
+    for _ in 0..2000 {
+        let c = v3(&mut r, 0.0, 4.0);
+        shapes.push(if spheres {
+            Shape::Sphere(hugrt::geometry::Sphere {
+                center: c,
+                radius: 0.1,
+            })
+        } else {
+            Shape::Triangle([c, c + v3(&mut r, -0.2, 0.2), c + v3(&mut r, -0.2, 0.2)])
+        });
+    }
+    scene_of(shapes)
+}
+
+/// hugrt's `refine`: a cluster grid of spheres, each tested on its own, gets more cells than
+/// `density` gives it; a cluster of triangles keeps `density`, and so does every cluster of the
+/// papers' presets.
+#[test]
+fn a_cluster_of_dear_objects_is_gridded_finer() {
+    let cells = |scene: &Scene, spec: &str| {
+        let st = stats(scene, spec);
+        assert_eq!(
+            stat(&st, "grids"),
+            2.0,
+            "{spec}: the floor's grid and the cube's"
+        );
+        stat(&st, "cells")
+    };
+    let spheres = cube_over_floor(true);
+    let (finer, as_given) = (cells(&spheres, "hug"), cells(&spheres, "hug:refine=false"));
+    assert!(
+        finer >= 1.5 * as_given,
+        "{finer} cells, {as_given} at density 2"
+    );
+    let triangles = cube_over_floor(false);
+    assert_eq!(
+        cells(&triangles, "hug"),
+        cells(&triangles, "hug:refine=false")
+    );
+    for paper in ["hug:preset=eg95", "hug:preset=scg97"] {
+        let keys = AnyAccel::resolve(paper).unwrap();
+        assert!(keys.contains(&("refine", "false".to_string())), "{paper}");
+    }
+}

@@ -121,6 +121,7 @@ pub const DEFAULTS: HugSettings = HugSettings {
     crowd: Some(cluster::CROWD),
     world: WorldCells::Auto,
     density: 2.0,
+    refine: true,
     cells: CellShape::Cubical,
     giveback: true,
     min_cluster: 16,
@@ -212,6 +213,9 @@ pub struct HugSettings {
     pub world: WorldCells,
     /// Cells per item of a cluster grid (EG95: 1).
     pub density: f32,
+    /// More cells than `density` for a cluster grid of objects whose tests are dear, where
+    /// the estimate of a ray's cost says so (hugrt's; `build::plan`).
+    pub refine: bool,
     pub cells: CellShape,
     /// Small (`min_cluster`) and loose clusters go back to the enclosing grid (hugrt's).
     pub giveback: bool,
@@ -253,6 +257,7 @@ impl Settings for HugSettings {
         key!("crowd", crowd: Option<usize>, (1..=1 << 30, "off"), "cluster=graph: objects sharing a binning cell with more than this many are joined untested (hugrt's), or off: every pair tested (SCG97)"),
         key!("world", world: WorldCells, (), "cells of the world grid: auto (4 per item; where it holds 90% of the objects, 1 if they leave it mostly empty, else 1 to 32 by an estimate of a ray's cost), 2n (EG95), sqrt2 (SCG97) or cells per item"),
         key!("density", density: f32, 0.001..=1000.0, "cells per item of a cluster grid (EG95: 1)"),
+        key!("refine", refine: bool, (), "true: a cluster grid holding objects other than triangles gets more cells an item than density where the estimate of a ray's cost says their tests are dear (hugrt's); false: density for every cluster grid (the papers)"),
         key!("cells", cells: CellShape, (), "cubical: cells as cubical as possible (hugrt's); cube-root: as many on every axis (EG95, SCG97)"),
         key!("giveback", giveback: bool, (), "true: small (min_cluster) and loose clusters go back to the enclosing grid (hugrt's); false: every cluster is gridded (the papers)"),
         key!("min_cluster", min_cluster: usize, 1..=1 << 30, "giveback: clusters of fewer objects are given back to the enclosing grid"),
@@ -288,6 +293,7 @@ impl HugSettings {
             },
             world: self.world,
             density: self.density,
+            refine: self.refine,
             cells: self.cells,
             shift: self.shift,
             give_back: self.giveback,
@@ -326,6 +332,11 @@ pub const EG95: Preset = Preset {
             "density",
             "1",
             "EG95 §2.2.3: a cluster of n objects gets n voxels",
+        ),
+        (
+            "refine",
+            "false",
+            "EG95 §2.2.3: every cluster by the same rule",
         ),
         (
             "world",
@@ -389,6 +400,11 @@ pub const SCG97: Preset = Preset {
             "density",
             "1",
             "SCG97 §1.3: a cluster of N objects gets N voxels",
+        ),
+        (
+            "refine",
+            "false",
+            "SCG97 §1.3: every cluster by the same rule",
         ),
         (
             "world",
