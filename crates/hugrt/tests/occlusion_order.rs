@@ -105,15 +105,22 @@ fn check<A: Accel>(name: &str) {
     );
 }
 
+/// `$check::<A>(name)` for every structure but brute force (which has no order).
+macro_rules! every_structure {
+    ($check:ident) => {
+        $check::<Hug>("hug");
+        $check::<Grid>("grid");
+        $check::<RecursiveGrid>("rgrid");
+        $check::<Octree>("octree");
+        $check::<AdaptiveGrid>("agrid");
+        $check::<Bvh>("bvh");
+        $check::<KdTree>("kdtree");
+    };
+}
+
 #[test]
 fn occlusion_from_the_far_end_crosses_the_same_cells_and_meets_the_blocker_first() {
-    check::<Hug>("hug");
-    check::<Grid>("grid");
-    check::<RecursiveGrid>("rgrid");
-    check::<Octree>("octree");
-    check::<AdaptiveGrid>("agrid");
-    check::<Bvh>("bvh");
-    check::<KdTree>("kdtree");
+    every_structure!(check);
 }
 
 /// The tests and cells of the shadow rays of [`tubes_and_roof`] through `accel`: asked one at
@@ -166,13 +173,7 @@ fn check_setting<A: Accel>(name: &str) {
 /// in batches, so that the presets' counters are counted as the papers counted theirs.
 #[test]
 fn the_occlusion_key_chooses_the_end_an_occlusion_query_starts_from() {
-    check_setting::<Hug>("hug");
-    check_setting::<Grid>("grid");
-    check_setting::<RecursiveGrid>("rgrid");
-    check_setting::<Octree>("octree");
-    check_setting::<AdaptiveGrid>("agrid");
-    check_setting::<Bvh>("bvh");
-    check_setting::<KdTree>("kdtree");
+    every_structure!(check_setting);
     for paper in [
         "hug:preset=eg95",
         "hug:preset=scg97",
