@@ -41,8 +41,9 @@ pub(crate) fn ends_outside(ray: &Ray, bounds: &Aabb) -> bool {
 }
 
 /// Where an occlusion query ([`super::Accel::any_hit`], [`super::Accel::any_hits`]) walks a
-/// ray's segment from: every structure's `occlusion` key. Only a matter of speed and of the
-/// counters: the answers are the same either way.
+/// ray's segment from: every structure's `occlusion` key. A matter of speed and of the
+/// counters: whether a ray is blocked is the same either way, though which blocker an
+/// occlusion query reports may differ.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Occlusion {
     /// hugrt's: from the far end of the segment where it ends outside the scene (a light
