@@ -12,7 +12,10 @@ shadow rays from Embree's camera hits to a point light above the scene (any-hit,
 structure (`SPEC@on` sets `--packets on`, `SPEC@off` `--packets off`; the default is auto). The
 table gives medians over the rounds of the Mrays/s ratio to Embree's in the same round, Embree's
 build time over ours, and time to image on the camera rays ((build + trace) Embree's over
-ours): above 1 is faster than Embree. Needs numpy.
+ours): above 1 is faster than Embree. After it, the same medians one row a scene (issue 19's
+item 4 table: each structure's ratio on each kind of rays, its time to image, and its build
+ratio in the camera, shadow and incoherent runs), and each column's range over the scenes.
+Needs numpy.
 """
 import argparse
 import os
@@ -83,6 +86,7 @@ def main():
 
     print("| scene | rays | structure | Mrays/s (Embree) | ×Embree | build ×Embree | time to image ×Embree |")
     print("| --- | --- | --- | --- | --- | --- | --- |")
+    medians = {}
     for scene in a.scenes:
         name = os.path.basename(scene).split(".")[0]
         base = os.path.join(a.work, name)
@@ -105,9 +109,34 @@ def main():
                     r.append((hm, em, hm / em, eb / hb, (eb + et) / (hb + ht)))
         for (kind, spec), r in ratios.items():
             med = [statistics.median(x[i] for x in r) for i in range(5)]
+            medians[name, kind, spec] = med
             tti = f"{med[4]:.2f}" if kind == "camera" else ""
             print(f"| {name} | {kind} | {spec} | {med[0]:.2f} ({med[1]:.2f}) | {med[2]:.2f} "
                   f"| {med[3]:.2f} | {tti} |", flush=True)
+    summary(medians, specs)
+
+
+def summary(medians, specs):
+    """The medians one row a scene, and each column's range over the scenes."""
+    kinds = ("camera", "shadow", "incoherent")
+    columns = [(f"{spec} {kind}", lambda n, s=spec, k=kind: medians[n, k, s][2])
+               for spec in specs for kind in kinds]
+    columns += [(f"{spec} time to image", lambda n, s=spec: medians[n, "camera", s][4])
+                for spec in specs]
+    names = list(dict.fromkeys(n for n, _, _ in medians))
+    print()
+    print("| scene | " + " | ".join(c for c, _ in columns) + " | "
+          + " | ".join(f"{spec} build ×Embree (camera, shadow, incoherent runs)"
+                       for spec in specs) + " |")
+    print("|" + " --- |" * (1 + len(columns) + len(specs)))
+    for n in names:
+        builds = [", ".join(f"{medians[n, k, s][3]:.2f}" for k in kinds) for s in specs]
+        print(f"| {n} | " + " | ".join(f"{f(n):.2f}×" for _, f in columns) + " | "
+              + " | ".join(builds) + " |")
+    print()
+    print("Ranges over the scenes: " + "; ".join(
+        f"{c} {min(f(n) for n in names):.2f}–{max(f(n) for n in names):.2f}×"
+        for c, f in columns) + ".")
 
 
 if __name__ == "__main__":
