@@ -52,7 +52,7 @@ pub enum WorldCells {
     /// SPD mount, sombrero, teapot and tetra, which this rule finds) render as fast or faster
     /// at one cell an item and build in 0.6–0.8 of the time, while for objects filling their
     /// box what a test costs decides: random triangles want one, SPD lattice's cylinders and
-    /// spheres four or more (docs/measurements.md, "The world grid's density on scenes of one
+    /// spheres eight or more (docs/measurements.md, "The world grid's density on scenes of one
     /// level", "The packets' triangle tests, and a surface beside a small cluster" and "The
     /// world grid of objects that fill their box").
     Auto,
@@ -404,9 +404,10 @@ pub fn plan(store: &PrimStore, boxes: &[Aabb], s: &Recipe) -> (Vec<GridPlan>, Re
 ///
 /// Spheres and cylinders, each tested on its own, cost about three steps of the walk
 /// ([`OTHER_TEST`]; a fit of the uniform grid's time a ray to its counters gave 2.8 on SPD
-/// jacks and 3.4 on lattice), and their clusters render faster in finer grids: SPD tree's
-/// clusters get 8 cells an item and balls' 4 (renders 0.82–0.88 and 0.86–0.94 of the time at
-/// 2). A cluster of triangles alone keeps `density`: tested eight at a time, the estimate
+/// jacks and 3.4 on lattice), and their clusters render faster in finer grids: SPD tree's,
+/// balls' and rings' clusters get 8 cells an item (tree's and balls' renders 0.82–0.88 and
+/// 0.86–0.94 of the time at 2, when balls' got 4 by an estimate that counted cells rather
+/// than areas). A cluster of triangles alone keeps `density`: tested eight at a time, the estimate
 /// never gave one more cells on the scenes measured, and asking it of every cluster took the
 /// four kitchens' build (113,000 clustered triangles) from 32–33 to 36–41 ms. A grid in a
 /// frame of its own keeps it too (the estimate reads world boxes). Measured in
