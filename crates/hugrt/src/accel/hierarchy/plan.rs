@@ -79,7 +79,7 @@ const FILLED_DENSITIES: [f64; 6] = [1.0, 2.0, 4.0, 8.0, 16.0, 32.0];
 /// for each of its cells a ray crosses: the estimate ran flat from 2 to 32 cells an object
 /// on lattice and picked 4, 1.12× behind the best uniform grid; by area it picks 16, and
 /// rings' and balls' clusters 8 (renders 0.92, 0.96 and 0.98 of the time). It also gives
-/// SPD jacks' nine objects 8 rather than 2, a render of 12 ms that 2 or 4 made 1.05–1.08×
+/// SPD jacks' nine objects 8 rather than 2, a render of 12 ms that 2 or 4 made up to 1.1×
 /// faster: the estimate's lines are random, and nine objects are few to average over
 /// (docs/measurements.md, "The estimate of a ray's tests by the area of a box's cells").
 pub(crate) fn filled_density(

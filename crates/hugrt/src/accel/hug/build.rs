@@ -407,10 +407,10 @@ pub fn plan(store: &PrimStore, boxes: &[Aabb], s: &Recipe) -> (Vec<GridPlan>, Re
 /// jacks and 3.4 on lattice), and their clusters render faster in finer grids: SPD tree's,
 /// balls' and rings' clusters get 8 cells an item (tree's and balls' renders 0.82–0.88 and
 /// 0.86–0.94 of the time at 2, when balls' got 4 by an estimate that counted cells rather
-/// than areas). A cluster of triangles alone keeps `density`: tested eight at a time, the estimate
-/// never gave one more cells on the scenes measured, and asking it of every cluster took the
-/// four kitchens' build (113,000 clustered triangles) from 32–33 to 36–41 ms. A grid in a
-/// frame of its own keeps it too (the estimate reads world boxes). Measured in
+/// than areas). A cluster of triangles alone keeps `density`: tested eight at a time, the
+/// estimate never gave one more cells on the scenes measured, and asking it of every
+/// cluster took the four kitchens' build (113,000 clustered triangles) from 32–33 to 36–41
+/// ms. A grid in a frame of its own keeps it too (the estimate reads world boxes). Measured in
 /// docs/measurements.md, "Cluster grids of dear objects cut finer".
 fn cluster_density(store: &PrimStore, boxes: &[Aabb], p: &Planned, s: &Recipe) -> f64 {
     let density = s.density as f64;
